@@ -1,0 +1,236 @@
+// commands.cpp: decodes frames and runs one handler per message type (see commands.h).
+#include "commands.h"
+
+#include <string.h>
+
+namespace cmd {
+
+using namespace sc;
+
+void Commands::init() {
+  for (uint8_t m = 0; m < kMaxMotors; ++m) limits_[m] = {kPeriodQ8Min, kPeriodQ8Max};
+  watchdog_ticks_ = ms_to_ticks(cfg::kWatchdogDefaultMs, F_CPU);
+  last_frame_ticks_ = hal::now_ticks();
+}
+
+void Commands::on_byte(uint8_t byte) {
+  const uint8_t rc = decoder_.push(byte);
+  if (rc == kFrameNone) return;
+  if (rc != kFrameOk) {
+    ++frames_bad_;
+    fault(rc);
+    return;
+  }
+  ++frames_ok_;
+  last_frame_ticks_ = hal::now_ticks();
+  watchdog_tripped_ = false;
+  handle(decoder_.payload(), decoder_.payload_len());
+}
+
+// Checks one set-period entry against the board and the motor's configured range.
+uint8_t Commands::check_entry(const PeriodEntry &e) const {
+  if (e.motor >= hal::motor_count()) return kErrMotor;
+  if (e.period_q8 == kPeriodSilent) return kErrNone;
+  const MotorLimits &l = limits_[e.motor];
+  if (e.period_q8 < l.min_period_q8 || e.period_q8 > l.max_period_q8) return kErrPeriodRange;
+  return kErrNone;
+}
+
+// A frame of set-period entries: all are checked first, then all applied (a chord is all or
+// nothing, so a bad entry never leaves half a chord sounding).
+uint8_t Commands::handle_periods(const uint8_t *p, uint8_t len) {
+  if (len % kSetPeriodBytes != 0) return kErrLength;
+  PeriodEntry e;
+  for (uint8_t i = 0; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
+    if (!get_entry(p + i, &e)) return kErrLength;
+    const uint8_t rc = check_entry(e);
+    if (rc != kErrNone) return rc;
+  }
+  for (uint8_t i = 0; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
+    get_entry(p + i, &e);
+    hal::set_period(e.motor, e.period_q8);
+  }
+  return kErrNone;
+}
+
+// kMsgAt: u32 board time, then entries; queued in arrival order (the host sends in time order).
+uint8_t Commands::handle_at(const uint8_t *p, uint8_t len) {
+  if (len < 4 + kSetPeriodBytes || (len - 4) % kSetPeriodBytes != 0) return kErrLength;
+  const uint32_t at = get_u32(p);
+  PeriodEntry e;
+  for (uint8_t i = 4; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
+    if (!get_entry(p + i, &e)) return kErrLength;
+    const uint8_t rc = check_entry(e);
+    if (rc != kErrNone) return rc;
+  }
+  if (queue_used_ + (len - 4) / kSetPeriodBytes > cfg::kQueueSize) return kErrQueueFull;
+  for (uint8_t i = 4; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
+    get_entry(p + i, &e);
+    AtEntry &slot = queue_[(uint8_t)((queue_head_ + queue_used_) % cfg::kQueueSize)];
+    slot.at_ticks = at;
+    slot.period_q8 = e.period_q8;
+    slot.motor = e.motor;
+    ++queue_used_;
+  }
+  return kErrNone;
+}
+
+// kMsgConfig: range checks here, driver-specific checks in hal::configure.
+uint8_t Commands::handle_config(const uint8_t *p, uint8_t len) {
+  if (len != sizeof(ConfigBody)) return kErrLength;
+  ConfigBody c;
+  memcpy(&c, p, sizeof c);
+  if (c.motor >= hal::motor_count()) return kErrMotor;
+  if (c.driver > kDriverTb6600 || c.endstop_active_high > 1) return kErrConfig;
+  if (c.pulse_us < cfg::kPulseUsMin || c.pulse_us > cfg::kPulseUsMax) return kErrConfig;
+  if (c.min_period_q8 < kPeriodQ8Min || c.max_period_q8 > kPeriodQ8Max ||
+      c.min_period_q8 > c.max_period_q8)
+    return kErrConfig;
+  if (c.start_period_q8 != 0 && (c.start_period_q8 > kPeriodQ8Max || c.accel_q8 == 0))
+    return kErrConfig;
+  const uint8_t rc = hal::configure(c);
+  if (rc != kErrNone) return rc;
+  limits_[c.motor] = {c.min_period_q8, c.max_period_q8};
+  return kErrNone;
+}
+
+void Commands::handle(const uint8_t *p, uint8_t len) {
+  const uint8_t type = p[0];
+  uint8_t rc = kErrNone;
+  if (type & kSetPeriodFlag) {
+    rc = handle_periods(p, len);
+  } else {
+    const uint8_t *body = p + 1;
+    const uint8_t n = (uint8_t)(len - 1);
+    switch (type) {
+      case kMsgHello:
+        if (n != 0) { rc = kErrLength; break; }
+        reply_caps();
+        break;
+      case kMsgConfig:
+        rc = handle_config(body, n);
+        break;
+      case kMsgHeartbeat:
+        if (n != 0) rc = kErrLength;
+        break;
+      case kMsgStopAll:
+        hal::stop_all();  // a panic is obeyed even if the frame is oddly long
+        queue_used_ = 0;
+        if (n != 0) rc = kErrLength;
+        break;
+      case kMsgStatusReq:
+        if (n != 0) { rc = kErrLength; break; }
+        reply_status();
+        break;
+      case kMsgClockReq:
+        if (n != 1) { rc = kErrLength; break; }
+        reply_clock(body[0]);
+        break;
+      case kMsgAt:
+        rc = handle_at(body, n);
+        break;
+      case kMsgWatchdog:
+        if (n != 2) { rc = kErrLength; break; }
+        watchdog_ticks_ = ms_to_ticks(get_u16(body), F_CPU);
+        break;
+      case kMsgResetCounters:
+        if (n != 0) { rc = kErrLength; break; }
+        frames_ok_ = 0;
+        frames_bad_ = 0;
+        last_error_ = 0;
+        hal::reset_step_counters();
+        hal::reset_uart_overruns();
+        break;
+      default:
+        rc = kErrUnknownType;
+        break;
+    }
+  }
+  if (rc != kErrNone) {
+    fault(rc);
+    reply_error(rc, type, 0);
+  }
+}
+
+void Commands::poll() {
+  const uint32_t now = hal::now_ticks();
+  // Timestamped entries: a silent motor starts exactly at its time, so hand it over a little
+  // early; a sounding motor changes at its next edge after the hand-over.
+  static const uint32_t kHandOverTicks = 2000;  // 125 us at 16 MHz: longer than a main-loop pass
+  while (queue_used_ != 0) {
+    const AtEntry &e = queue_[queue_head_];
+    const int32_t ahead = (int32_t)(e.at_ticks - now);
+    if (ahead > (int32_t)kHandOverTicks) break;
+    if (ahead < 0) {
+      fault(kErrLate);
+      hal::set_period(e.motor, e.period_q8);
+    } else {
+      hal::set_period_at(e.motor, e.period_q8, e.at_ticks);
+    }
+    queue_head_ = (uint8_t)((queue_head_ + 1) % cfg::kQueueSize);
+    --queue_used_;
+  }
+  if (watchdog_ticks_ != 0 && !watchdog_tripped_ && now - last_frame_ticks_ > watchdog_ticks_) {
+    watchdog_tripped_ = true;
+    queue_used_ = 0;
+    hal::stop_all();
+    fault(kErrWatchdog);
+  }
+}
+
+void Commands::reply_caps() {
+  uint8_t buf[kMaxPayload];
+  buf[0] = kMsgCaps;
+  CapsBody c;
+  memset(&c, 0, sizeof c);
+  c.protocol_version = kProtocolVersion;
+  c.motor_count = hal::motor_count();
+  c.f_cpu_hz = F_CPU;
+  c.queue_size = cfg::kQueueSize;
+  for (uint8_t m = 0; m < c.motor_count && m < sizeof c.endstops; ++m) c.endstops[m] = hal::endstops(m);
+  memcpy(buf + 1, &c, sizeof c);
+  uint8_t n = (uint8_t)(1 + sizeof c);
+  for (const char *s = hal::board_name(); *s && n < kMaxPayload; ++s) buf[n++] = (uint8_t)*s;
+  hal::send(buf, n);
+}
+
+void Commands::reply_status() {
+  uint8_t buf[kMaxPayload];
+  buf[0] = kMsgStatus;
+  StatusHead h;
+  h.frames_ok = frames_ok_;
+  h.frames_bad = frames_bad_;
+  h.uart_overruns = hal::uart_overruns();
+  h.reversals = hal::reversals();
+  h.late_edges = hal::late_edges();
+  h.queue_used = queue_used_;
+  const uint8_t motor_fault = hal::last_motor_fault();
+  h.last_error = motor_fault ? motor_fault : last_error_;
+  h.motor_count = hal::motor_count();
+  h.flags = (uint8_t)((watchdog_tripped_ ? kStatusWatchdogTripped : 0) |
+                      (hal::drivers_enabled() ? kStatusDriversEnabled : 0));
+  memcpy(buf + 1, &h, sizeof h);
+  uint8_t n = (uint8_t)(1 + sizeof h);
+  for (uint8_t m = 0; m < h.motor_count; ++m) {
+    StatusMotor s;
+    hal::motor_status(m, &s);
+    memcpy(buf + n, &s, sizeof s);
+    n = (uint8_t)(n + sizeof s);
+  }
+  hal::send(buf, n);
+}
+
+void Commands::reply_clock(uint8_t seq) {
+  uint8_t buf[6];
+  buf[0] = kMsgClock;
+  buf[1] = seq;
+  put_u32(buf + 2, hal::now_ticks());
+  hal::send(buf, sizeof buf);
+}
+
+void Commands::reply_error(uint8_t code, uint8_t type, uint8_t detail) {
+  const uint8_t buf[4] = {kMsgError, code, type, detail};
+  hal::send(buf, sizeof buf);
+}
+
+}  // namespace cmd

@@ -1,0 +1,76 @@
+// commands.h: frames in, actions out. One handler per message type, the timestamped queue,
+// the watchdog and the status counters. Pure logic over hal.h, built for the AVR and the host.
+#ifndef STEPCHOIR_COMMANDS_H
+#define STEPCHOIR_COMMANDS_H
+
+#include <stdint.h>
+
+#include "config.h"
+#include "hal.h"
+#include "src/stepchoir_protocol.h"
+
+namespace cmd {
+
+// Per-motor limits the host configured (periods in ticks q8).
+struct MotorLimits {
+  uint32_t min_period_q8;
+  uint32_t max_period_q8;
+};
+
+// One timestamped entry waiting for its board time.
+struct AtEntry {
+  uint32_t at_ticks;
+  uint32_t period_q8;
+  uint8_t motor;
+};
+
+class Commands {
+ public:
+  // Called from: setup(). Defaults: every motor allowed kPeriodQ8Min..kPeriodQ8Max.
+  void init();
+
+  // Called from: main loop, for each byte received. Decodes frames and runs their handlers.
+  void on_byte(uint8_t byte);
+
+  // Called from: main loop, often. Starts due timestamped entries, runs the watchdog.
+  void poll();
+
+  // Counters, for the status reply and the tests.
+  uint32_t frames_ok() const { return frames_ok_; }
+  uint16_t frames_bad() const { return frames_bad_; }
+  uint8_t last_error() const { return last_error_; }
+  uint8_t queue_used() const { return queue_used_; }
+  bool watchdog_tripped() const { return watchdog_tripped_; }
+
+ private:
+  void handle(const uint8_t *p, uint8_t len);
+  uint8_t handle_periods(const uint8_t *p, uint8_t len);
+  uint8_t handle_at(const uint8_t *p, uint8_t len);
+  uint8_t handle_config(const uint8_t *p, uint8_t len);
+  uint8_t check_entry(const sc::PeriodEntry &e) const;
+  void reply_caps();
+  void reply_status();
+  void reply_clock(uint8_t seq);
+  void reply_error(uint8_t code, uint8_t type, uint8_t detail);
+  void fault(uint8_t code) { last_error_ = code; }
+
+  sc::FrameDecoder decoder_;
+  MotorLimits limits_[sc::kMaxMotors];
+  AtEntry queue_[cfg::kQueueSize];
+  uint8_t queue_head_ = 0;
+  uint8_t queue_used_ = 0;
+  uint32_t frames_ok_ = 0;
+  uint16_t frames_bad_ = 0;
+  uint8_t last_error_ = 0;
+  uint32_t last_frame_ticks_ = 0;
+  uint32_t watchdog_ticks_ = 0;  // 0 = off
+  bool watchdog_tripped_ = false;
+};
+
+// Watchdog time in ticks for a timeout in ms at the board's F_CPU (no division at run time
+// beyond this one multiply, done when the host changes it).
+inline uint32_t ms_to_ticks(uint16_t ms, uint32_t f_cpu_hz) { return (uint32_t)ms * (f_cpu_hz / 1000u); }
+
+}  // namespace cmd
+
+#endif  // STEPCHOIR_COMMANDS_H

@@ -1,0 +1,59 @@
+// hal.h: what the command layer needs from the hardware. The AVR build implements it in
+// scheduler.cpp, step_driver.cpp and link.cpp; the host tests implement it with a recorder.
+//
+// Every function here is called from the main loop only (never from an ISR).
+#ifndef STEPCHOIR_HAL_H
+#define STEPCHOIR_HAL_H
+
+#include <stdint.h>
+
+#include "src/stepchoir_protocol.h"
+
+namespace hal {
+
+// Number of driver sockets on this board.
+uint8_t motor_count();
+
+// Endstop wiring of motor m (sc::kEndstopMin | kEndstopMax | kEndstopShared).
+uint8_t endstops(uint8_t m);
+
+// The board's name as reported in kMsgCaps.
+const char *board_name();
+
+// Board time: CPU ticks since power-up, wrapping at 2^32.
+uint32_t now_ticks();
+
+// Plays motor m at period_q8 (CPU ticks, 8 fractional bits; 0 = silence) from now on, keeping
+// the phase of a sounding motor. The caller has checked the range.
+void set_period(uint8_t m, uint32_t period_q8);
+
+// Like set_period, but a silent motor's first edge falls exactly at board time at_ticks.
+void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
+
+// Silences every motor at once and disables the drivers.
+void stop_all();
+
+// Applies a motor configuration (validated by the caller except for driver-specific modes).
+// Returns sc::kErrNone or sc::kErrConfig.
+uint8_t configure(const sc::ConfigBody &c);
+
+// Fills motor m's status record.
+void motor_status(uint8_t m, sc::StatusMotor *out);
+
+// Step-level counters kept by the scheduler: reversals and late edges since the last reset.
+uint16_t reversals();
+uint16_t late_edges();
+uint8_t last_motor_fault();  // sc::ErrorCode raised by the step ISR (endstop stuck), 0 if none
+bool drivers_enabled();
+void reset_step_counters();
+
+// Bytes the UART lost (hardware overrun or a full receive ring).
+uint16_t uart_overruns();
+void reset_uart_overruns();
+
+// Queues one encoded reply frame for the UART; drops it when the transmit ring is full.
+void send(const uint8_t *payload, uint8_t len);
+
+}  // namespace hal
+
+#endif  // STEPCHOIR_HAL_H

@@ -1,0 +1,18 @@
+// link.h: UART0 at 1,000,000 baud (U2X clear, UBRR0 = 0: exact at 16 MHz, sampled 16x),
+// with interrupt-driven receive and transmit rings.
+#ifndef STEPCHOIR_LINK_H
+#define STEPCHOIR_LINK_H
+
+#include <stdint.h>
+
+namespace link {
+
+// Called from: setup(). Configures UART0 and its interrupts.
+void begin();
+
+// Called from: main loop. Takes one received byte; false when the ring is empty.
+bool read(uint8_t *byte);
+
+}  // namespace link
+
+#endif  // STEPCHOIR_LINK_H

@@ -1,0 +1,1 @@
+../../../protocol/stepchoir_protocol.h

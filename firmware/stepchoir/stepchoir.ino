@@ -1,0 +1,21 @@
+// stepchoir.ino: stepper-motor instrument firmware. setup() and loop() only; see README.md.
+// Board: Arduino Uno + CNC Shield V3 or Arduino Mega 2560 + RAMPS 1.4, picked by the MCU.
+#include "commands.h"
+#include "link.h"
+#include "step_driver.h"
+
+static cmd::Commands g_commands;
+
+void setup() {
+  TIMSK0 = 0;  // no millis() tick: its ISR would delay step edges; board time is Timer1's
+  drivers::begin();
+  link::begin();
+  g_commands.init();
+}
+
+// Main loop: drain the UART into the frame decoder, start due timestamped notes, watchdog.
+void loop() {
+  uint8_t byte;
+  for (uint8_t i = 0; i < 32 && link::read(&byte); ++i) g_commands.on_byte(byte);
+  g_commands.poll();
+}

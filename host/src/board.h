@@ -1,0 +1,85 @@
+// board.h: one board on the far end of a Link: frames out, replies in, decoded.
+#ifndef STEPCHOIR_HOST_BOARD_H
+#define STEPCHOIR_HOST_BOARD_H
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "link.h"
+#include "stepchoir_protocol.h"
+
+namespace stepchoir {
+
+// kMsgCaps, decoded.
+struct Caps {
+  uint8_t protocol_version = 0;
+  uint8_t motor_count = 0;
+  uint32_t f_cpu_hz = 0;
+  uint8_t queue_size = 0;
+  std::vector<uint8_t> endstops;  // per motor: sc::kEndstopMin | kEndstopMax | kEndstopShared
+  std::string board_name;
+};
+
+// kMsgStatus, decoded.
+struct Status {
+  sc::StatusHead head{};
+  std::vector<sc::StatusMotor> motors;
+};
+
+// kMsgError, decoded.
+struct BoardError {
+  uint8_t code = 0, type = 0, detail = 0;
+};
+
+// Decoders for reply payloads (type byte included). Throw std::runtime_error naming the
+// message type and what is wrong.
+Caps parse_caps(const uint8_t *p, size_t len);
+Status parse_status(const uint8_t *p, size_t len);
+
+// Encodes a payload into a wire frame.
+std::vector<uint8_t> frame(const std::vector<uint8_t> &payload);
+
+// A payload of set-period entries (a chord), from (motor, period_q8) pairs.
+std::vector<uint8_t> periods_payload(const std::vector<sc::PeriodEntry> &entries);
+
+// A kMsgConfig payload.
+std::vector<uint8_t> config_payload(const sc::ConfigBody &c);
+
+// Synchronous session with one board (used by the short commands: hello, tone, panic).
+// Called from: one thread. Blocks on I/O with the given timeouts.
+class Board {
+ public:
+  explicit Board(std::unique_ptr<Link> link) : link_(std::move(link)) {}
+
+  // Sends a payload as one frame; throws on a failed port.
+  void send(const std::vector<uint8_t> &payload);
+
+  // Sends one delimiter, so the board drops any partial frame left from before.
+  void resync();
+
+  // Waits for the next reply of `type` (others are kept in `errors` if they are errors).
+  std::optional<std::vector<uint8_t>> wait_reply(uint8_t type, int timeout_ms);
+
+  // Asks for capabilities, retrying a few times; throws when the board never answers.
+  Caps hello(int timeout_ms = 1500);
+
+  // Asks for status; nullopt on timeout.
+  std::optional<Status> status(int timeout_ms = 500);
+
+  // Errors the board reported so far.
+  const std::vector<BoardError> &errors() const { return errors_; }
+
+  Link &link() { return *link_; }
+
+ private:
+  std::unique_ptr<Link> link_;
+  sc::FrameDecoder decoder_;
+  std::vector<BoardError> errors_;
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_BOARD_H

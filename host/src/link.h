@@ -1,0 +1,36 @@
+// link.h: a byte pipe to a board: real serial ports through libserialport, pseudo-terminals
+// (the virtual board) through POSIX termios, behind one interface.
+#ifndef STEPCHOIR_HOST_LINK_H
+#define STEPCHOIR_HOST_LINK_H
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace stepchoir {
+
+class Link {
+ public:
+  virtual ~Link() = default;
+  // Called from: the writer thread. Writes all bytes; false when the port failed.
+  virtual bool write(const uint8_t *data, size_t len) = 0;
+  // Called from: the reader thread. Reads up to len bytes, waiting up to timeout_ms;
+  // returns the count (0 on timeout) or -1 when the port failed.
+  virtual long read(uint8_t *data, size_t len, int timeout_ms) = 0;
+  // What was opened, for messages.
+  virtual std::string name() const = 0;
+};
+
+// Opens a board at `path` at the protocol's baud rate, raw 8N1. Pseudo-terminals (and links
+// to them) use termios, since libserialport refuses them; anything else uses libserialport.
+// Throws std::runtime_error with the path and the reason.
+std::unique_ptr<Link> open_link(const std::string &path);
+
+// Serial ports libserialport can see, as "path  description".
+std::vector<std::string> list_serial_ports();
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_LINK_H

@@ -1,0 +1,134 @@
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports.
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include "board.h"
+#include "link.h"
+#include "pitch.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+// Called from: signal context. Only sets a flag.
+void on_signal(int) { g_stop = true; }
+
+// Prints a board's capabilities.
+void print_caps(const stepchoir::Caps &c) {
+  std::printf("board: %s\nprotocol: %u\nmotors: %u\nf_cpu_hz: %u\nqueue: %u\n", c.board_name.c_str(),
+              c.protocol_version, c.motor_count, c.f_cpu_hz, c.queue_size);
+  for (size_t m = 0; m < c.endstops.size(); ++m) {
+    const uint8_t e = c.endstops[m];
+    std::printf("motor %zu endstops: %s\n", m,
+                e == 0 ? "none (soft limits)"
+                       : (e & sc::kEndstopShared) ? "one switch for both ends"
+                                                  : (e & sc::kEndstopMin && e & sc::kEndstopMax) ? "min and max"
+                                                                                                   : (e & sc::kEndstopMin) ? "min" : "max");
+  }
+}
+
+// Prints a status reply.
+void print_status(const stepchoir::Status &s) {
+  std::printf("frames_ok: %u\nframes_bad: %u\nuart_overruns: %u\nreversals: %u\nlate_edges: %u\n"
+              "queue_used: %u\nlast_error: %u (%s)\nwatchdog_tripped: %s\ndrivers_enabled: %s\n",
+              s.head.frames_ok, s.head.frames_bad, s.head.uart_overruns, s.head.reversals, s.head.late_edges,
+              s.head.queue_used, s.head.last_error, sc::error_name(s.head.last_error),
+              (s.head.flags & sc::kStatusWatchdogTripped) ? "yes" : "no",
+              (s.head.flags & sc::kStatusDriversEnabled) ? "yes" : "no");
+  for (size_t m = 0; m < s.motors.size(); ++m)
+    std::printf("motor %zu: position %d %s%s%s\n", m, s.motors[m].position_steps,
+                (s.motors[m].flags & sc::kMotorDirUp) ? "up" : "down",
+                (s.motors[m].flags & sc::kMotorSounding) ? " sounding" : "",
+                (s.motors[m].flags & sc::kMotorEndstopFault) ? " endstop-fault" : "");
+}
+
+// `stepchoir tone`: one motor at one frequency, heartbeats meanwhile, silence at the end.
+int run_tone(stepchoir::Board &board, int motor, double hz, double seconds) {
+  const stepchoir::Caps caps = board.hello();
+  if (motor < 0 || motor >= caps.motor_count) {
+    std::fprintf(stderr, "stepchoir tone: --motor %d: the board has motors 0-%d\n", motor, caps.motor_count - 1);
+    return 2;
+  }
+  const uint32_t period = stepchoir::hz_to_period_q8(hz, caps.f_cpu_hz);
+  if (hz > 0 && period == 0) {
+    std::fprintf(stderr, "stepchoir tone: --hz %g is below the lowest playable frequency\n", hz);
+    return 2;
+  }
+  board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), period}}));
+  if (auto r = board.wait_reply(sc::kMsgError, 30)) {
+    std::fprintf(stderr, "stepchoir tone: the board refused the note: %s\n", sc::error_name((*r)[1]));
+    return 1;
+  }
+  using clock = std::chrono::steady_clock;
+  const auto end = clock::now() + std::chrono::duration_cast<clock::duration>(
+                                      std::chrono::duration<double>(seconds > 0 ? seconds : 1e7));
+  while (!g_stop && clock::now() < end && hz > 0) {
+    board.send({sc::kMsgHeartbeat});
+    const clock::duration left = end - clock::now();
+    std::this_thread::sleep_for(std::min<clock::duration>(std::chrono::milliseconds(100), left));
+  }
+  if (hz > 0) board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), sc::kPeriodSilent}}));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  CLI::App app{"stepchoir: stepper motors that sing"};
+  app.require_subcommand(1);
+  std::string port;
+
+  auto *hello = app.add_subcommand("hello", "Print a board's capabilities");
+  hello->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+
+  auto *status = app.add_subcommand("status", "Print a board's counters and motor positions");
+  status->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+
+  auto *panic = app.add_subcommand("panic", "Silence every motor of a board now");
+  panic->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+
+  int motor = 0;
+  double hz = 0, seconds = 0;
+  auto *tone = app.add_subcommand("tone", "Play one motor at one frequency (0 Hz silences)");
+  tone->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+  tone->add_option("--motor,-m", motor, "Motor index")->default_val(0);
+  tone->add_option("--hz", hz, "Frequency in Hz (steps per second)")->required()->check(CLI::Range(0.0, 40000.0));
+  tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+
+  app.add_subcommand("ports", "List serial ports");
+
+  CLI11_PARSE(app, argc, argv);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+  try {
+    if (app.got_subcommand("ports")) {
+      for (const auto &p : stepchoir::list_serial_ports()) std::printf("%s\n", p.c_str());
+      return 0;
+    }
+    stepchoir::Board board(stepchoir::open_link(port));
+    if (app.got_subcommand(hello)) {
+      print_caps(board.hello());
+    } else if (app.got_subcommand(status)) {
+      board.resync();
+      auto s = board.status(1000);
+      if (!s) throw std::runtime_error(port + ": no status reply");
+      print_status(*s);
+    } else if (app.got_subcommand(panic)) {
+      board.resync();
+      board.send({sc::kMsgStopAll});
+      std::printf("stop-all sent to %s\n", port.c_str());
+    } else if (app.got_subcommand(tone)) {
+      return run_tone(board, motor, hz, seconds);
+    }
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "stepchoir: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,314 @@
+// stepchoir_protocol.h: the one definition of the host <-> board wire format.
+//
+// Every constant of the protocol lives here and nowhere else. The header compiles with
+// avr-gcc 5.4 (-std=gnu++11, no STL, no heap) for the firmware and with the host's C++17,
+// so the frame codec below is the same code on both ends. protocol/PROTOCOL.md explains the
+// format in prose and carries the hex test vectors both test suites decode.
+//
+// Nothing here allocates, blocks or logs; every function is safe to call from any thread
+// or from the firmware's main loop. None of them is meant for an ISR.
+#ifndef STEPCHOIR_PROTOCOL_H
+#define STEPCHOIR_PROTOCOL_H
+
+#include <stdint.h>
+#include <stddef.h>
+
+namespace sc {
+
+// ---------------------------------------------------------------------------------------------
+// Link and framing
+// ---------------------------------------------------------------------------------------------
+
+static const uint8_t kProtocolVersion = 1;
+static const uint32_t kBaud = 1000000;         // bit/s; exact at 16 MHz with U2X clear, UBRR 0
+static const uint8_t kDelimiter = 0x00;        // ends every frame on the wire (COBS never emits it)
+static const uint8_t kMaxPayload = 60;         // bytes of message (type byte included), before CRC
+static const uint8_t kCrcBytes = 2;            // CRC-16/CCITT-FALSE, little-endian after payload
+static const uint8_t kMaxFrameWire = kMaxPayload + kCrcBytes + 2;  // + COBS code byte + delimiter
+
+// ---------------------------------------------------------------------------------------------
+// Periods: CPU ticks with 8 fractional bits ("q8"), so the firmware never divides.
+// ---------------------------------------------------------------------------------------------
+
+static const uint8_t kPeriodFracBits = 8;
+static const uint32_t kPeriodQ8Max = 0x0FFFFFFFul;  // 28 bits: 1,048,575.996 ticks (15.26 Hz at 16 MHz)
+// Shortest period the firmware accepts from any message: 25 us (40 kHz steps).
+static const uint32_t kPeriodQ8Min = 400ul << kPeriodFracBits;
+static const uint32_t kPeriodSilent = 0;      // period 0 means: stop stepping
+
+// ---------------------------------------------------------------------------------------------
+// Message types: the first payload byte.
+// ---------------------------------------------------------------------------------------------
+//
+// A first byte with the top bit set starts a set-period entry (4 bytes):
+//   byte 0: 1 m m m p p p p   m = motor index 0-7, pppp = period bits 27..24
+//   byte 1-3: period bits 0..23, little-endian
+// A frame whose first byte has the top bit set holds 1 to 15 such entries and nothing else:
+// one motor costs 4 + 2 (CRC) + 1 (COBS) + 1 (delimiter) = 8 bytes on the wire; a chord
+// costs 4 bytes more per extra motor.
+static const uint8_t kSetPeriodFlag = 0x80;
+static const uint8_t kSetPeriodBytes = 4;
+static const uint8_t kMaxMotors = 8;           // what the entry format can address
+
+enum MsgType : uint8_t {
+  // host -> board
+  kMsgHello = 0x01,       // (empty) -> kMsgCaps
+  kMsgConfig = 0x02,      // ConfigBody: configure one motor's driver, travel and limits
+  kMsgHeartbeat = 0x03,   // (empty): keeps the watchdog fed, no reply
+  kMsgStopAll = 0x04,     // (empty): silence every motor now, disable the drivers
+  kMsgStatusReq = 0x05,   // (empty) -> kMsgStatus
+  kMsgClockReq = 0x06,    // u8 seq -> kMsgClock
+  kMsgAt = 0x07,          // u32 board time, then 1-13 set-period entries: play them at that time
+  kMsgWatchdog = 0x08,    // u16 timeout in ms (0 = never): silence after that long without a frame
+  kMsgResetCounters = 0x09,  // (empty): zero the status counters
+  // board -> host
+  kMsgCaps = 0x41,        // CapsBody + board name (ASCII, rest of payload)
+  kMsgStatus = 0x42,      // StatusHead + one StatusMotor per motor
+  kMsgClock = 0x43,       // u8 seq, u32 board ticks when the request was decoded
+  kMsgError = 0x44,       // u8 error code, u8 message type it concerns, u8 detail
+};
+
+// ---------------------------------------------------------------------------------------------
+// Error codes: one table, numbered for good. PROTOCOL.md gives each a sentence.
+// ---------------------------------------------------------------------------------------------
+enum ErrorCode : uint8_t {
+  kErrNone = 0,
+  kErrCrc = 1,            // frame failed its CRC (counted, never answered: it may be noise)
+  kErrFrameTooLong = 2,   // no delimiter within kMaxFrameWire bytes
+  kErrCobs = 3,           // COBS code byte points past the frame end
+  kErrUnknownType = 4,    // first byte is no known message type
+  kErrLength = 5,         // payload length does not fit the message type
+  kErrMotor = 6,          // motor index >= the board's motor count
+  kErrPeriodRange = 7,    // period outside the motor's configured range
+  kErrQueueFull = 8,      // timestamped entry dropped: the board's queue is full
+  kErrUartOverrun = 9,    // bytes lost in the UART (firmware too busy or line too fast)
+  kErrLate = 10,          // timestamped entry arrived after its time; played at once
+  kErrWatchdog = 11,      // no frame within the watchdog time: every motor stopped
+  kErrEndstopStuck = 12,  // an endstop stayed active after the bounce; the motor ignores it
+  kErrConfig = 13,        // configuration value out of range
+  kErrShortFrame = 14,    // frame too short to hold a type byte and a CRC
+};
+
+// A short name for an error code, for logs and tests (host side; the firmware never calls it).
+inline const char *error_name(uint8_t code) {
+  switch (code) {
+    case kErrNone: return "none";
+    case kErrCrc: return "crc";
+    case kErrFrameTooLong: return "frame-too-long";
+    case kErrCobs: return "cobs";
+    case kErrUnknownType: return "unknown-type";
+    case kErrLength: return "length";
+    case kErrMotor: return "motor";
+    case kErrPeriodRange: return "period-range";
+    case kErrQueueFull: return "queue-full";
+    case kErrUartOverrun: return "uart-overrun";
+    case kErrLate: return "late";
+    case kErrWatchdog: return "watchdog";
+    case kErrEndstopStuck: return "endstop-stuck";
+    case kErrConfig: return "config";
+    case kErrShortFrame: return "short-frame";
+    default: return "unknown-error";
+  }
+}
+
+// Drivers the StepDriver code knows (ConfigBody::driver).
+enum DriverType : uint8_t { kDriverA4988 = 0, kDriverDrv8825 = 1, kDriverTb6600 = 2 };
+
+// Endstop wiring per motor, as reported in CapsBody::endstops[m].
+static const uint8_t kEndstopMin = 0x01;     // a switch at the low end of travel
+static const uint8_t kEndstopMax = 0x02;     // a switch at the high end of travel
+static const uint8_t kEndstopShared = 0x04;  // one input for both ends (CNC Shield V3)
+
+// ---------------------------------------------------------------------------------------------
+// Message bodies (after the type byte). Little-endian, packed, fixed size.
+// ---------------------------------------------------------------------------------------------
+
+struct __attribute__((packed)) ConfigBody {
+  uint8_t motor;
+  uint8_t driver;            // DriverType
+  uint8_t microsteps;        // 1, 2, 4, 8, 16 or 32 (what the driver supports)
+  uint8_t endstop_active_high;  // 1: a switch reads HIGH when pressed; 0: LOW when pressed
+  uint32_t travel_steps;     // length of travel in steps; 0 = unlimited (no soft limits)
+  uint32_t min_period_q8;    // shortest period allowed (highest frequency), ticks q8
+  uint32_t max_period_q8;    // longest period allowed (lowest frequency), ticks q8
+  uint32_t start_period_q8;  // onset ramp starts at this period; 0 = no ramp
+  uint32_t accel_q8;         // onset ramp: period shrinks by this much per step (ticks q8)
+  uint8_t pulse_us;          // STEP high time, microseconds (2-10)
+};
+
+struct __attribute__((packed)) CapsBody {
+  uint8_t protocol_version;
+  uint8_t motor_count;
+  uint32_t f_cpu_hz;
+  uint8_t queue_size;        // timestamped entries the board can hold
+  uint8_t endstops[5];       // per motor: kEndstopMin | kEndstopMax | kEndstopShared
+};
+
+struct __attribute__((packed)) StatusHead {
+  uint32_t frames_ok;
+  uint16_t frames_bad;       // CRC, COBS and length failures
+  uint16_t uart_overruns;
+  uint16_t reversals;        // endstop and soft-limit reversals since the counters were reset
+  uint16_t late_edges;       // steps the scheduler had to play late (should stay 0)
+  uint8_t queue_used;
+  uint8_t last_error;        // ErrorCode of the most recent fault
+  uint8_t motor_count;
+  uint8_t flags;             // kStatusWatchdogTripped ...
+};
+static const uint8_t kStatusWatchdogTripped = 0x01;
+static const uint8_t kStatusDriversEnabled = 0x02;
+
+struct __attribute__((packed)) StatusMotor {
+  int32_t position_steps;
+  uint8_t flags;             // kMotorDirUp | kMotorSounding | kMotorEndstopFault
+};
+static const uint8_t kMotorDirUp = 0x01;
+static const uint8_t kMotorSounding = 0x02;
+static const uint8_t kMotorEndstopFault = 0x04;
+
+static_assert(sizeof(ConfigBody) + 1 <= kMaxPayload, "config fits a frame");
+static_assert(sizeof(StatusHead) + 1 + 5 * sizeof(StatusMotor) <= kMaxPayload, "status fits");
+
+// ---------------------------------------------------------------------------------------------
+// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection): check("123456789") = 0x29B1.
+// Byte-wise without a table: about 30 AVR cycles per byte, no flash for a table.
+// ---------------------------------------------------------------------------------------------
+static const uint16_t kCrcInit = 0xFFFF;
+
+inline uint16_t crc16_update(uint16_t crc, uint8_t byte) {
+  uint8_t x = (uint8_t)((crc >> 8) ^ byte);
+  x ^= (uint8_t)(x >> 4);
+  return (uint16_t)((crc << 8) ^ ((uint16_t)x << 12) ^ ((uint16_t)x << 5) ^ x);
+}
+
+inline uint16_t crc16(const uint8_t *data, size_t len) {
+  uint16_t crc = kCrcInit;
+  for (size_t i = 0; i < len; ++i) crc = crc16_update(crc, data[i]);
+  return crc;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Little-endian field access (the AVR and x86 are both little-endian, but say so explicitly).
+// ---------------------------------------------------------------------------------------------
+inline uint16_t get_u16(const uint8_t *p) { return (uint16_t)(p[0] | ((uint16_t)p[1] << 8)); }
+inline uint32_t get_u32(const uint8_t *p) {
+  return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+inline void put_u16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
+inline void put_u32(uint8_t *p, uint32_t v) {
+  p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); p[2] = (uint8_t)(v >> 16); p[3] = (uint8_t)(v >> 24);
+}
+
+// One set-period entry: motor index and period (ticks q8, 0 = silent).
+struct PeriodEntry {
+  uint8_t motor;
+  uint32_t period_q8;
+};
+
+// Writes one 4-byte entry. The caller keeps motor < kMaxMotors and period <= kPeriodQ8Max.
+inline void put_entry(uint8_t *p, uint8_t motor, uint32_t period_q8) {
+  p[0] = (uint8_t)(kSetPeriodFlag | ((motor & 7u) << 4) | ((period_q8 >> 24) & 0x0Fu));
+  p[1] = (uint8_t)period_q8;
+  p[2] = (uint8_t)(period_q8 >> 8);
+  p[3] = (uint8_t)(period_q8 >> 16);
+}
+
+// Reads one 4-byte entry; false when the first byte lacks the set-period flag.
+inline bool get_entry(const uint8_t *p, PeriodEntry *out) {
+  if (!(p[0] & kSetPeriodFlag)) return false;
+  out->motor = (uint8_t)((p[0] >> 4) & 7u);
+  out->period_q8 = ((uint32_t)(p[0] & 0x0Fu) << 24) | ((uint32_t)p[3] << 16) |
+                   ((uint32_t)p[2] << 8) | p[1];
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame encoder: payload -> COBS(payload + CRC) + delimiter.
+// ---------------------------------------------------------------------------------------------
+
+// Bytes on the wire for a payload of len bytes (len <= kMaxPayload).
+inline uint8_t frame_wire_size(uint8_t len) { return (uint8_t)(len + kCrcBytes + 2); }
+
+// Encodes payload[0..len) into out (room for frame_wire_size(len) bytes). Returns the byte
+// count written, or 0 when len is 0 or above kMaxPayload. Payloads stay below 254 bytes, so
+// COBS needs exactly one code byte and no block splits.
+inline uint8_t encode_frame(const uint8_t *payload, uint8_t len, uint8_t *out) {
+  if (len == 0 || len > kMaxPayload) return 0;
+  uint16_t crc = crc16(payload, len);
+  uint8_t code_at = 0, n = 1, code = 1;
+  const uint8_t total = (uint8_t)(len + kCrcBytes);
+  for (uint8_t i = 0; i < total; ++i) {
+    uint8_t b = i < len ? payload[i] : (i == len ? (uint8_t)crc : (uint8_t)(crc >> 8));
+    if (b == 0) {
+      out[code_at] = code;
+      code_at = n++;
+      code = 1;
+    } else {
+      out[n++] = b;
+      ++code;
+    }
+  }
+  out[code_at] = code;
+  out[n++] = kDelimiter;
+  return n;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame decoder: a byte-at-a-time state machine, the same code in the firmware and the host.
+// ---------------------------------------------------------------------------------------------
+//
+// Feed every received byte to push(). It returns kFrameNone while a frame is in progress,
+// kFrameOk when a frame ended with a valid CRC (payload() / payload_len() hold it until the
+// next push), or the ErrorCode of a frame that ended badly. After garbage the decoder is back
+// in step at the next delimiter: the worst case loses the one frame whose bytes followed the
+// garbage without a delimiter between them.
+static const uint8_t kFrameNone = 0xFF;
+static const uint8_t kFrameOk = 0;
+
+class FrameDecoder {
+ public:
+  FrameDecoder() : n_(0), overflow_(false), len_(0) {}
+
+  // Called from: firmware main loop / host reader thread. Does not allocate or block.
+  uint8_t push(uint8_t byte) {
+    if (byte != kDelimiter) {
+      if (n_ < sizeof(buf_)) buf_[n_++] = byte;
+      else overflow_ = true;
+      return kFrameNone;
+    }
+    const uint8_t n = n_;
+    const bool overflow = overflow_;
+    n_ = 0;
+    overflow_ = false;
+    len_ = 0;
+    if (overflow) return kErrFrameTooLong;
+    if (n == 0) return kFrameNone;  // idle delimiters are allowed (the host sends one to resync)
+    // COBS decode in place: buf_[0] is a code byte; decoded bytes shift left by one.
+    uint8_t out = 0, i = 0;
+    while (i < n) {
+      const uint8_t code = buf_[i];
+      if (code == 0 || (uint16_t)i + code > n) return kErrCobs;
+      for (uint8_t k = 1; k < code; ++k) buf_[out++] = buf_[i + k];
+      i = (uint8_t)(i + code);
+      if (i < n) buf_[out++] = 0;
+    }
+    if (out < 1 + kCrcBytes) return kErrShortFrame;
+    const uint8_t len = (uint8_t)(out - kCrcBytes);
+    if (crc16(buf_, len) != get_u16(buf_ + len)) return kErrCrc;
+    len_ = len;
+    return kFrameOk;
+  }
+
+  const uint8_t *payload() const { return buf_; }
+  uint8_t payload_len() const { return len_; }
+
+ private:
+  uint8_t buf_[kMaxFrameWire - 1];  // COBS bytes of one frame, without its delimiter
+  uint8_t n_;
+  bool overflow_;
+  uint8_t len_;
+};
+
+}  // namespace sc
+
+#endif  // STEPCHOIR_PROTOCOL_H

@@ -1,0 +1,41 @@
+// fake_hal.cpp: a recording hal for host-side tests of the firmware's command layer.
+#include "fake_hal.h"
+
+FakeHal g_hal;
+
+namespace hal {
+uint8_t motor_count() { return g_hal.motors; }
+uint8_t endstops(uint8_t m) { return m < 3 ? (sc::kEndstopMin | sc::kEndstopMax | sc::kEndstopShared) : 0; }
+const char *board_name() { return "uno_cnc_shield_v3"; }
+uint32_t now_ticks() { return g_hal.now; }
+void set_period(uint8_t m, uint32_t p) { g_hal.calls.push_back({FakeHal::kSet, m, p, 0}); g_hal.period[m] = p; }
+void set_period_at(uint8_t m, uint32_t p, uint32_t at) {
+  g_hal.calls.push_back({FakeHal::kSetAt, m, p, at});
+  g_hal.period[m] = p;
+}
+void stop_all() {
+  g_hal.calls.push_back({FakeHal::kStop, 0, 0, 0});
+  for (auto &p : g_hal.period) p = 0;
+}
+uint8_t configure(const sc::ConfigBody &c) {
+  g_hal.configs.push_back(c);
+  return c.microsteps == 32 && c.driver == sc::kDriverA4988 ? sc::kErrConfig : sc::kErrNone;
+}
+void motor_status(uint8_t m, sc::StatusMotor *out) {
+  out->position_steps = 100 * m;
+  out->flags = g_hal.period[m] ? sc::kMotorSounding : 0;
+}
+uint16_t reversals() { return 3; }
+uint16_t late_edges() { return 0; }
+uint8_t last_motor_fault() { return 0; }
+bool drivers_enabled() { return true; }
+void reset_step_counters() {}
+uint16_t uart_overruns() { return 0; }
+void reset_uart_overruns() {}
+void send(const uint8_t *payload, uint8_t len) {
+  uint8_t buf[sc::kMaxFrameWire];
+  const uint8_t n = sc::encode_frame(payload, len, buf);
+  g_hal.sent.insert(g_hal.sent.end(), buf, buf + n);
+  g_hal.replies.emplace_back(payload, payload + len);
+}
+}  // namespace hal

@@ -1,0 +1,31 @@
+// fake_hal.h: the recording hal (see fake_hal.cpp).
+#ifndef STEPCHOIR_TESTS_FAKE_HAL_H
+#define STEPCHOIR_TESTS_FAKE_HAL_H
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "hal.h"
+
+struct FakeHal {
+  enum Kind { kSet, kSetAt, kStop };
+  struct Call {
+    Kind kind;
+    uint8_t motor;
+    uint32_t period_q8;
+    uint32_t at_ticks;
+  };
+  uint8_t motors = 4;
+  uint32_t now = 1000;
+  std::array<uint32_t, 8> period{};
+  std::vector<Call> calls;
+  std::vector<sc::ConfigBody> configs;
+  std::vector<uint8_t> sent;                   // encoded reply bytes
+  std::vector<std::vector<uint8_t>> replies;   // reply payloads
+  void reset() { *this = FakeHal(); }
+};
+
+extern FakeHal g_hal;
+
+#endif  // STEPCHOIR_TESTS_FAKE_HAL_H

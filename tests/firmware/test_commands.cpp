@@ -1,0 +1,285 @@
+// test_commands.cpp: the firmware's frame handling (host build) against the spec's vectors,
+// adversarial byte streams, the watchdog and the timestamped queue.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <random>
+
+#include "commands.h"
+#include "fake_hal.h"
+#include "vectors.h"
+
+namespace {
+
+// A fresh command layer on a fresh fake board.
+cmd::Commands &fresh() {
+  static cmd::Commands c;
+  g_hal.reset();
+  c = cmd::Commands();
+  c.init();
+  return c;
+}
+
+// Feeds bytes one at a time, as the main loop does.
+void feed(cmd::Commands &c, const std::vector<uint8_t> &bytes) {
+  for (uint8_t b : bytes) c.on_byte(b);
+}
+
+// Encodes a payload as the host would.
+std::vector<uint8_t> wire(const std::vector<uint8_t> &payload) {
+  std::vector<uint8_t> out(sc::kMaxFrameWire);
+  out.resize(sc::encode_frame(payload.data(), uint8_t(payload.size()), out.data()));
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
+  for (const auto &v : testvec::load()) {
+    INFO("PROTOCOL.md:" << v.line << " " << v.kind);
+    auto &c = fresh();
+    feed(c, v.wire);
+    if (v.payload[0] >= 0x41 && v.payload[0] <= 0x44) {  // board-to-host messages are refused
+      CHECK(c.frames_ok() == 1);
+      REQUIRE(g_hal.replies.size() == 1);
+      CHECK(g_hal.replies[0][0] == sc::kMsgError);
+      CHECK(g_hal.replies[0][1] == sc::kErrUnknownType);
+      continue;
+    }
+    CHECK(c.frames_ok() == 1);
+    CHECK(c.frames_bad() == 0);
+    if (v.kind == "set-period") {
+      const auto motors = v.nums("motor"), periods = v.nums("period_q8");
+      const uint8_t known = g_hal.motors;
+      bool all_known = true;
+      for (auto m : motors) all_known = all_known && m < known;
+      if (!all_known) {  // motor 4 on a 4-motor board: refused whole
+        CHECK(g_hal.calls.empty());
+        REQUIRE(g_hal.replies.size() == 1);
+        CHECK(g_hal.replies[0][1] == sc::kErrMotor);
+        continue;
+      }
+      REQUIRE(g_hal.calls.size() == motors.size());
+      for (size_t i = 0; i < motors.size(); ++i) {
+        CHECK(g_hal.calls[i].kind == FakeHal::kSet);
+        CHECK(g_hal.calls[i].motor == motors[i]);
+        CHECK(g_hal.calls[i].period_q8 == periods[i]);
+      }
+    } else if (v.kind == "hello") {
+      REQUIRE(g_hal.replies.size() == 1);
+      CHECK(g_hal.replies[0][0] == sc::kMsgCaps);
+    } else if (v.kind == "stop-all") {
+      REQUIRE(g_hal.calls.size() == 1);
+      CHECK(g_hal.calls[0].kind == FakeHal::kStop);
+    } else if (v.kind == "status-req") {
+      REQUIRE(g_hal.replies.size() == 1);
+      CHECK(g_hal.replies[0][0] == sc::kMsgStatus);
+      CHECK(g_hal.replies[0].size() == 1 + sizeof(sc::StatusHead) + 4 * sizeof(sc::StatusMotor));
+    } else if (v.kind == "clock-req") {
+      REQUIRE(g_hal.replies.size() == 1);
+      CHECK(g_hal.replies[0][1] == v.num("seq"));
+      CHECK(sc::get_u32(&g_hal.replies[0][2]) == g_hal.now);
+    } else if (v.kind == "config") {
+      REQUIRE(g_hal.configs.size() == 1);
+      CHECK(g_hal.configs[0].motor == v.num("motor"));
+      CHECK(g_hal.configs[0].microsteps == v.num("microsteps"));
+      CHECK(g_hal.configs[0].travel_steps == v.num("travel_steps"));
+      CHECK(g_hal.replies.empty());
+    } else if (v.kind == "at") {
+      CHECK(c.queue_used() == 1);
+      CHECK(g_hal.calls.empty());
+      feed(c, wire({sc::kMsgWatchdog, 0, 0}));     // the jump in time below is no silence
+      g_hal.now = uint32_t(v.num("ticks")) - 100;  // inside the hand-over lead
+      c.poll();
+      REQUIRE(g_hal.calls.size() == 1);
+      CHECK(g_hal.calls[0].kind == FakeHal::kSetAt);
+      CHECK(g_hal.calls[0].at_ticks == v.num("ticks"));
+      CHECK(g_hal.calls[0].period_q8 == v.num("period_q8"));
+    } else if (v.kind == "heartbeat" || v.kind == "watchdog") {
+      CHECK(g_hal.calls.empty());
+      CHECK(g_hal.replies.empty());
+    }
+  }
+}
+
+TEST_CASE("the caps reply matches the spec's caps vector") {
+  auto &c = fresh();
+  feed(c, wire({sc::kMsgHello}));
+  for (const auto &v : testvec::load())
+    if (v.kind == "caps") CHECK(g_hal.sent == v.wire);
+}
+
+TEST_CASE("a chord with one bad entry plays nothing") {
+  auto &c = fresh();
+  std::vector<uint8_t> p(8);
+  sc::put_entry(&p[0], 0, 9309091);
+  sc::put_entry(&p[4], 1, 1000);  // below kPeriodQ8Min
+  feed(c, wire(p));
+  CHECK(g_hal.calls.empty());
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][1] == sc::kErrPeriodRange);
+  CHECK(c.last_error() == sc::kErrPeriodRange);
+}
+
+TEST_CASE("wrong lengths are refused with the message type named") {
+  auto &c = fresh();
+  feed(c, wire({sc::kMsgHello, 0}));
+  feed(c, wire({sc::kMsgClockReq}));
+  feed(c, wire({0x80, 1, 2}));  // 3-byte entry
+  feed(c, wire({0x55}));
+  REQUIRE(g_hal.replies.size() == 4);
+  CHECK(g_hal.replies[0][1] == sc::kErrLength);
+  CHECK(g_hal.replies[0][2] == sc::kMsgHello);
+  CHECK(g_hal.replies[1][1] == sc::kErrLength);
+  CHECK(g_hal.replies[2][1] == sc::kErrLength);
+  CHECK(g_hal.replies[3][1] == sc::kErrUnknownType);
+  CHECK(g_hal.calls.empty());
+}
+
+TEST_CASE("random byte streams never crash the command layer and it resyncs") {
+  std::mt19937 rng(99);
+  for (int trial = 0; trial < 300; ++trial) {
+    auto &c = fresh();
+    std::vector<uint8_t> junk(size_t(rng() % 3000));
+    for (auto &b : junk) b = uint8_t(rng() % 7 == 0 ? 0 : rng());
+    feed(c, junk);
+    g_hal.calls.clear();
+    g_hal.replies.clear();
+    const uint32_t before = c.frames_ok();
+    feed(c, wire({sc::kMsgHeartbeat}));  // may be eaten by leftover garbage
+    feed(c, wire({sc::kMsgHello}));
+    INFO("trial " << trial);
+    CHECK(c.frames_ok() >= before + 1);
+    bool caps = false;
+    for (const auto &r : g_hal.replies) caps = caps || r[0] == sc::kMsgCaps;
+    CHECK(caps);
+  }
+}
+
+TEST_CASE("garbage is counted as bad frames") {
+  auto &c = fresh();
+  auto f = wire({sc::kMsgHeartbeat});
+  f[1] ^= 0x40;  // corrupt the type byte
+  feed(c, f);
+  CHECK(c.frames_bad() == 1);
+  CHECK(c.frames_ok() == 0);
+  CHECK(c.last_error() == sc::kErrCrc);
+  std::vector<uint8_t> too_long(200, 0x11);
+  too_long.push_back(0);
+  feed(c, too_long);
+  CHECK(c.frames_bad() == 2);
+  CHECK(c.last_error() == sc::kErrFrameTooLong);
+}
+
+TEST_CASE("watchdog stops everything once when frames stop, and re-arms on the next frame") {
+  auto &c = fresh();
+  std::vector<uint8_t> p(4);
+  sc::put_entry(&p[0], 0, 9309091);
+  feed(c, wire(p));
+  const uint32_t timeout = cmd::ms_to_ticks(cfg::kWatchdogDefaultMs, F_CPU);
+  g_hal.now += timeout - 10;
+  c.poll();
+  CHECK(g_hal.period[0] == 9309091);
+  g_hal.now += 20;
+  c.poll();
+  CHECK(g_hal.period[0] == 0);
+  CHECK(c.watchdog_tripped());
+  CHECK(c.last_error() == sc::kErrWatchdog);
+  g_hal.calls.clear();
+  c.poll();
+  CHECK(g_hal.calls.empty());  // once
+  feed(c, wire({sc::kMsgHeartbeat}));
+  CHECK_FALSE(c.watchdog_tripped());
+}
+
+TEST_CASE("watchdog timeout is settable and 0 turns it off") {
+  auto &c = fresh();
+  feed(c, wire({sc::kMsgWatchdog, 0, 0}));
+  g_hal.now += 100u * F_CPU;
+  c.poll();
+  CHECK_FALSE(c.watchdog_tripped());
+  feed(c, wire({sc::kMsgWatchdog, 50, 0}));  // 50 ms
+  g_hal.now += cmd::ms_to_ticks(51, F_CPU);
+  c.poll();
+  CHECK(c.watchdog_tripped());
+}
+
+TEST_CASE("timestamped entries start in order, late ones at once, a full queue refuses") {
+  auto &c = fresh();
+  auto at = [&](uint32_t t, uint8_t m, uint32_t p) {
+    std::vector<uint8_t> pl(9);
+    pl[0] = sc::kMsgAt;
+    sc::put_u32(&pl[1], t);
+    sc::put_entry(&pl[5], m, p);
+    feed(c, wire(pl));
+  };
+  at(g_hal.now + 100000, 0, 9309091);
+  at(g_hal.now + 200000, 1, 9309091);
+  c.poll();
+  CHECK(g_hal.calls.empty());
+  g_hal.now += 100000;
+  c.poll();
+  REQUIRE(g_hal.calls.size() == 1);
+  CHECK(g_hal.calls[0].motor == 0);
+  at(g_hal.now - 5, 2, 9309091);  // behind entry 1 in the queue
+  g_hal.now += 100000;
+  c.poll();
+  REQUIRE(g_hal.calls.size() == 3);
+  CHECK(g_hal.calls[1].motor == 1);
+  CHECK(g_hal.calls[2].motor == 2);
+  CHECK(g_hal.calls[2].kind == FakeHal::kSet);  // late: played at once
+  CHECK(c.last_error() == sc::kErrLate);
+  for (int i = 0; i < cfg::kQueueSize; ++i) at(g_hal.now + 1000000, 3, 9309091);
+  CHECK(c.queue_used() == cfg::kQueueSize);
+  g_hal.replies.clear();
+  at(g_hal.now + 1000000, 3, 9309091);
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][1] == sc::kErrQueueFull);
+  feed(c, wire({sc::kMsgStopAll}));
+  CHECK(c.queue_used() == 0);
+}
+
+TEST_CASE("config is range-checked before it reaches the driver") {
+  auto &c = fresh();
+  sc::ConfigBody b{};
+  b.motor = 1;
+  b.driver = sc::kDriverDrv8825;
+  b.microsteps = 16;
+  b.travel_steps = 1000;
+  b.min_period_q8 = sc::kPeriodQ8Min;
+  b.max_period_q8 = sc::kPeriodQ8Max;
+  b.pulse_us = 2;
+  auto send = [&](const sc::ConfigBody &x) {
+    std::vector<uint8_t> p(1 + sizeof x);
+    p[0] = sc::kMsgConfig;
+    memcpy(&p[1], &x, sizeof x);
+    g_hal.replies.clear();
+    feed(c, wire(p));
+  };
+  send(b);
+  CHECK(g_hal.replies.empty());
+  CHECK(g_hal.configs.size() == 1);
+  auto bad = b;
+  bad.pulse_us = 30;
+  send(bad);
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][1] == sc::kErrConfig);
+  bad = b;
+  bad.motor = 7;
+  send(bad);
+  CHECK(g_hal.replies[0][1] == sc::kErrMotor);
+  bad = b;
+  bad.driver = sc::kDriverA4988;
+  bad.microsteps = 32;  // the A4988 has no 1/32
+  send(bad);
+  CHECK(g_hal.replies[0][1] == sc::kErrConfig);
+  // the configured range now limits set-period
+  b.max_period_q8 = 1000000;
+  send(b);
+  std::vector<uint8_t> p(4);
+  sc::put_entry(&p[0], 1, 2000000);
+  g_hal.replies.clear();
+  feed(c, wire(p));
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][1] == sc::kErrPeriodRange);
+}

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# run-tests.sh: installs dependencies, configures into build/, builds everything (host,
+# firmware for both boards, virtual board), then runs every test under ctest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+tools/deps.sh
+cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo
+cmake --build build -j"$(nproc)"
+cd build
+ctest --output-on-failure -j"$(nproc)" "$@"

@@ -1,0 +1,114 @@
+// avr_adapter.h: the only simavr user: runs the ELF, reports pins, drives switches, bridges UART0.
+#ifndef STEPCHOIR_VBOARD_AVR_ADAPTER_H
+#define STEPCHOIR_VBOARD_AVR_ADAPTER_H
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "board_config.h"
+#include "cpu_profiler.h"
+#include "pty_link.h"
+#include "virtual_board.h"
+
+struct avr_t;
+struct avr_irq_t;
+
+namespace vboard {
+
+// How the simulated core ended a run_until() call.
+enum class CoreState { kRunning, kDone, kCrashed };
+
+// Thin adapter between simavr and the pure model. Pin callbacks, switch levels, the UART bridge
+// and cycle timers all go through here; the model never sees simavr types.
+class AvrAdapter : public SwitchPinDriver {
+ public:
+  // model and link must outlive the adapter.
+  AvrAdapter(const BoardConfig &board, VirtualBoard &model, PtyLink &link);
+  ~AvrAdapter() override;
+  AvrAdapter(const AvrAdapter &) = delete;
+  AvrAdapter &operator=(const AvrAdapter &) = delete;
+
+  // Routes simavr's log to stderr (errors only when quiet). Call before load().
+  static void install_logger(bool quiet);
+  // Creates the MCU, loads elf_path, sets initial pin levels and hooks pins and UART0.
+  bool load(const std::string &elf_path, std::string &error);
+  // Feeds every step to profiler (nullptr = no per-instruction accounting).
+  void set_profiler(CpuProfiler *profiler) { profiler_ = profiler; }
+
+  // Flash size in bytes.
+  uint32_t flash_bytes() const;
+  // Bytes per interrupt vector slot.
+  unsigned vector_size_bytes() const;
+  // Current cycle.
+  uint64_t cycle() const;
+  // SREG.I now.
+  bool interrupts_enabled() const;
+  // Runs until cycle >= end_cycle, or the core stops.
+  CoreState run_until(uint64_t end_cycle);
+  // Starts feeding received host bytes to UART0 (call after PtyLink::poll_rx()).
+  void kick_rx();
+  // Re-writes the switch inputs into the PIN registers (cheap; repairs them after an MCU reset).
+  void reassert_switch_pins();
+
+  // Bytes delivered to the AVR's receiver.
+  uint64_t uart_in_bytes() const { return uart_in_bytes_; }
+  // Host bytes lost because the AVR's receiver was disabled.
+  uint64_t uart_in_lost() const { return uart_in_lost_; }
+  // Bytes the AVR transmitted.
+  uint64_t uart_out_bytes() const { return uart_out_bytes_; }
+
+  // SwitchPinDriver: sets a switch input level now.
+  void drive_switch_pin(size_t switch_index, bool level) override;
+  // SwitchPinDriver: asks for VirtualBoard::on_wakeup at cycle.
+  void wake_at(uint64_t cycle) override;
+
+ private:
+  struct PinHook;
+  struct SwitchPort;
+
+  // Looks up simavr's UART0 and port modules.
+  bool find_modules(std::string &error);
+  // Sets the initial pin levels the firmware sees.
+  void apply_initial_levels();
+  // Registers the pin, UART and XON/XOFF callbacks.
+  void hook_callbacks();
+  // UART0 byte time in cycles from its current registers (start + data + parity + stop bits).
+  uint64_t uart_byte_cycles() const;
+  // Makes simavr time UART0 bytes correctly (it counts a parity bit always; see notes).
+  void fix_uart_timing();
+
+  // simavr callbacks (C signatures).
+  static void on_pin_irq(avr_irq_t *irq, uint32_t value, void *param);
+  static void on_uart_output(avr_irq_t *irq, uint32_t value, void *param);
+  static void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param);
+  static void on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param);
+  static uint64_t on_rx_timer(avr_t *avr, uint64_t when, void *param);
+  static uint64_t on_wake_timer(avr_t *avr, uint64_t when, void *param);
+  static uint64_t on_chunk_end_timer(avr_t *avr, uint64_t when, void *param);
+  static void no_sleep(avr_t *avr, uint64_t how_long_cycles);
+
+  const BoardConfig &board_;
+  VirtualBoard &model_;
+  PtyLink &link_;
+  CpuProfiler *profiler_ = nullptr;
+  avr_t *avr_ = nullptr;
+  void *uart_ = nullptr;  // avr_uart_t of UART0
+  avr_irq_t *uart_input_irq_ = nullptr;
+  std::vector<std::unique_ptr<PinHook>> pin_hooks_;
+  std::vector<SwitchPort> switch_ports_;
+  std::vector<avr_irq_t *> switch_irqs_;
+  bool xoff_ = false;
+  bool rx_timer_armed_ = false;
+  uint64_t next_rx_cycle_ = 0;
+  bool wake_armed_ = false;
+  uint64_t wake_cycle_ = 0;
+  uint64_t uart_in_bytes_ = 0;
+  uint64_t uart_in_lost_ = 0;
+  uint64_t uart_out_bytes_ = 0;
+};
+
+}  // namespace vboard
+
+#endif  // STEPCHOIR_VBOARD_AVR_ADAPTER_H

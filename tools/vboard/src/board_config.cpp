@@ -1,0 +1,58 @@
+// board_config.cpp: converts the firmware's constexpr board tables into BoardConfig.
+#include "board_config.h"
+
+#include "mega_ramps_14.h"
+#include "uno_cnc_shield_v3.h"
+
+namespace vboard {
+
+namespace {
+
+// Converts a board table pin.
+PinRef to_pin_ref(const board::Pin &pin) {
+  PinRef ref;
+  ref.wired = pin.wired();
+  ref.arduino = pin.arduino;
+  ref.port = pin.port;
+  ref.bit = pin.bit;
+  return ref;
+}
+
+// Converts a board table's motor list.
+template <size_t N>
+std::vector<MotorConfig> to_motor_configs(const board::MotorPins (&motors)[N]) {
+  std::vector<MotorConfig> configs;
+  for (const board::MotorPins &m : motors)
+    configs.push_back({m.axis, to_pin_ref(m.step), to_pin_ref(m.dir), to_pin_ref(m.enable),
+                       to_pin_ref(m.min_switch), to_pin_ref(m.max_switch)});
+  return configs;
+}
+
+}  // namespace
+
+// Fills config for "uno" or "mega".
+bool board_config_for(const std::string &cli_name, BoardConfig &config) {
+  config = BoardConfig();
+  config.cli_name = cli_name;
+  if (cli_name == "uno") {
+    namespace b = board::uno_cnc_shield_v3;
+    config.table_name = b::kName;
+    config.mcu = b::kMcu;
+    config.vector_count = 26;  // ATmega328P
+    config.enable_active_low = b::kEnableActiveLow;
+    config.motors = to_motor_configs(b::kMotors);
+    return true;
+  }
+  if (cli_name == "mega") {
+    namespace b = board::mega_ramps_14;
+    config.table_name = b::kName;
+    config.mcu = b::kMcu;
+    config.vector_count = 57;  // ATmega2560
+    config.enable_active_low = b::kEnableActiveLow;
+    config.motors = to_motor_configs(b::kMotors);
+    return true;
+  }
+  return false;
+}
+
+}  // namespace vboard

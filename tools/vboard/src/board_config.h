@@ -1,0 +1,45 @@
+// board_config.h: the virtual board's view of a board table (firmware/stepchoir/boards/*.h).
+#ifndef STEPCHOIR_VBOARD_BOARD_CONFIG_H
+#define STEPCHOIR_VBOARD_BOARD_CONFIG_H
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace vboard {
+
+// A pin as port letter + bit; wired == false for kNoPin.
+struct PinRef {
+  bool wired = false;
+  int arduino = -1;
+  char port = '-';
+  uint8_t bit = 0;
+  // True when both refer to the same wired port bit.
+  bool same_as(const PinRef &other) const {
+    return wired && other.wired && port == other.port && bit == other.bit;
+  }
+};
+
+// The pins of one driver socket the virtual board models.
+struct MotorConfig {
+  char axis;
+  PinRef step, dir, enable, min_switch, max_switch;
+};
+
+// One board: MCU, clock and driver sockets.
+struct BoardConfig {
+  std::string cli_name;    // "uno" / "mega"
+  std::string table_name;  // board table kName
+  std::string mcu;         // simavr core name
+  uint32_t f_cpu_hz = 16000000;
+  unsigned vector_count = 0;  // interrupt vectors incl. reset
+  bool enable_active_low = true;
+  std::vector<MotorConfig> motors;
+};
+
+// Fills config for "uno" or "mega"; returns false for an unknown name.
+bool board_config_for(const std::string &cli_name, BoardConfig &config);
+
+}  // namespace vboard
+
+#endif  // STEPCHOIR_VBOARD_BOARD_CONFIG_H

@@ -1,0 +1,42 @@
+// pacer.h: maps simulated cycles to wall-clock time, with a bounded catch-up (pure logic).
+#ifndef STEPCHOIR_VBOARD_PACER_H
+#define STEPCHOIR_VBOARD_PACER_H
+
+#include <cstdint>
+
+namespace vboard {
+
+// The board runs cycles_per_second (16 MHz, adjusted by the crystal's ppm error) of real time.
+// When the simulation is ahead of the wall clock the caller sleeps; when it falls behind by more
+// than max_catchup_ns, the pacer gives up the excess (no long fast-forward burst) and records it.
+class Pacer {
+ public:
+  // f_cpu_hz nominal clock; clock_ppm crystal error (+ = fast); max_catchup_ns burst limit.
+  Pacer(double f_cpu_hz, double clock_ppm, uint64_t max_catchup_ns);
+
+  // Cycles the board executes per real second.
+  double cycles_per_second() const { return cycles_per_second_; }
+  // Anchors cycle to wall_ns.
+  void start(uint64_t cycle, uint64_t wall_ns);
+  // Wall time (ns) at which cycle is due.
+  uint64_t due_wall_ns(uint64_t cycle) const;
+  // How far the simulation at cycle is ahead of wall_ns (negative = behind). Records the lag and,
+  // beyond the catch-up limit, moves the anchor so at most max_catchup_ns remain to catch up.
+  int64_t ahead_ns(uint64_t cycle, uint64_t wall_ns);
+  // Largest lag seen, ns.
+  uint64_t lag_max_ns() const { return lag_max_ns_; }
+  // Total wall time given up because the simulation could not keep up, ns.
+  uint64_t slipped_ns() const { return slipped_ns_; }
+
+ private:
+  double cycles_per_second_;
+  uint64_t max_catchup_ns_;
+  uint64_t anchor_cycle_ = 0;
+  uint64_t anchor_wall_ns_ = 0;
+  uint64_t lag_max_ns_ = 0;
+  uint64_t slipped_ns_ = 0;
+};
+
+}  // namespace vboard
+
+#endif  // STEPCHOIR_VBOARD_PACER_H

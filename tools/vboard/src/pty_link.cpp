@@ -1,0 +1,148 @@
+// pty_link.cpp: pseudo-terminal creation, raw mode, non-blocking byte transfer and the symlink.
+#include "pty_link.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+namespace vboard {
+
+// Closes the pty and removes the link.
+PtyLink::~PtyLink() {
+  remove_link();
+  if (slave_fd_ >= 0) ::close(slave_fd_);
+  if (master_fd_ >= 0) ::close(master_fd_);
+}
+
+// Creates the pty (raw, non-blocking master).
+bool PtyLink::open(std::string &error) {
+  master_fd_ = posix_openpt(O_RDWR | O_NOCTTY);
+  if (master_fd_ < 0 || grantpt(master_fd_) != 0 || unlockpt(master_fd_) != 0) {
+    error = std::string("cannot create a pseudo-terminal: ") + std::strerror(errno);
+    return false;
+  }
+  const char *name = ptsname(master_fd_);
+  if (!name) {
+    error = std::string("ptsname failed: ") + std::strerror(errno);
+    return false;
+  }
+  slave_path_ = name;
+  slave_fd_ = ::open(name, O_RDWR | O_NOCTTY);
+  if (slave_fd_ < 0) {
+    error = "cannot open " + slave_path_ + ": " + std::strerror(errno);
+    return false;
+  }
+  termios tio;
+  if (tcgetattr(slave_fd_, &tio) != 0) {
+    error = std::string("tcgetattr failed: ") + std::strerror(errno);
+    return false;
+  }
+  cfmakeraw(&tio);  // 8 bits, no echo, no CR/LF mapping, no XON/XOFF
+  cfsetispeed(&tio, B1000000);
+  cfsetospeed(&tio, B1000000);
+  if (tcsetattr(slave_fd_, TCSANOW, &tio) != 0) {
+    error = std::string("tcsetattr failed: ") + std::strerror(errno);
+    return false;
+  }
+  const int flags = fcntl(master_fd_, F_GETFL);
+  if (flags < 0 || fcntl(master_fd_, F_SETFL, flags | O_NONBLOCK) != 0) {
+    error = std::string("cannot make the pty non-blocking: ") + std::strerror(errno);
+    return false;
+  }
+  return true;
+}
+
+// Makes link_path a symlink to the slave (replacing an existing symlink, never a file).
+bool PtyLink::make_link(const std::string &link_path, std::string &error) {
+  struct stat st;
+  if (lstat(link_path.c_str(), &st) == 0) {
+    if (!S_ISLNK(st.st_mode)) {
+      error = link_path + " exists and is not a symlink; not replacing it";
+      return false;
+    }
+    if (unlink(link_path.c_str()) != 0) {
+      error = "cannot remove old link " + link_path + ": " + std::strerror(errno);
+      return false;
+    }
+  }
+  if (symlink(slave_path_.c_str(), link_path.c_str()) != 0) {
+    error = "cannot create link " + link_path + ": " + std::strerror(errno);
+    return false;
+  }
+  link_path_ = link_path;
+  return true;
+}
+
+// Removes the symlink if it still points at our slave.
+void PtyLink::remove_link() {
+  if (link_path_.empty()) return;
+  char target[4096];
+  const ssize_t len = readlink(link_path_.c_str(), target, sizeof target - 1);
+  if (len > 0) {
+    target[len] = '\0';
+    if (slave_path_ == target) unlink(link_path_.c_str());
+  }
+  link_path_.clear();
+}
+
+// Reads what the host wrote into the receive queue.
+void PtyLink::poll_rx() {
+  uint8_t buffer[4096];
+  while (rx_queue_.size() < kRxQueueMax) {
+    const ssize_t count = ::read(master_fd_, buffer, sizeof buffer);
+    if (count > 0) {
+      rx_queue_.insert(rx_queue_.end(), buffer, buffer + count);
+      rx_bytes_ += static_cast<uint64_t>(count);
+      if (static_cast<size_t>(count) < sizeof buffer) return;
+      continue;
+    }
+    if (count < 0 && errno == EINTR) continue;
+    return;  // EAGAIN: nothing more; EIO: no host side open (cannot happen while we hold one)
+  }
+}
+
+// Takes the next received byte.
+uint8_t PtyLink::rx_pop() {
+  const uint8_t byte = rx_queue_.front();
+  rx_queue_.pop_front();
+  return byte;
+}
+
+// Queues one byte the AVR sent; drops it when the queue is full.
+void PtyLink::tx_push(uint8_t byte) {
+  if (tx_queue_.size() >= kTxQueueMax) {
+    flush_tx();
+    if (tx_queue_.size() >= kTxQueueMax) {
+      ++tx_dropped_;
+      return;
+    }
+  }
+  tx_queue_.push_back(byte);
+}
+
+// Writes queued bytes to the host as far as the pty accepts them.
+void PtyLink::flush_tx() {
+  size_t consumed = 0;
+  while (consumed < tx_queue_.size()) {
+    const ssize_t count = ::write(master_fd_, tx_queue_.data() + consumed, tx_queue_.size() - consumed);
+    if (count > 0) {
+      consumed += static_cast<size_t>(count);
+      tx_bytes_ += static_cast<uint64_t>(count);
+      continue;
+    }
+    if (count < 0 && errno == EINTR) continue;
+    if (count < 0 && errno == EIO) {  // host side gone: nobody will read these
+      tx_dropped_ += tx_queue_.size() - consumed;
+      consumed = tx_queue_.size();
+    }
+    break;  // EAGAIN: the pty is full, keep the rest for later
+  }
+  tx_queue_.erase(tx_queue_.begin(), tx_queue_.begin() + static_cast<std::ptrdiff_t>(consumed));
+}
+
+}  // namespace vboard
