@@ -1,0 +1,62 @@
+// e2e_util.h: helpers for end-to-end tests: a host session on a virtual board, traffic
+// generators, and board-clock scheduling.
+#ifndef STEPCHOIR_TESTS_E2E_UTIL_H
+#define STEPCHOIR_TESTS_E2E_UTIL_H
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "board.h"
+#include "pitch.h"
+#include "vboard_process.h"
+
+namespace e2e {
+
+// A scratch path for a trace, unique per test.
+inline std::string scratch(const std::string &name) {
+  return std::string(STEPCHOIR_E2E_SCRATCH) + "/" + name;
+}
+
+// The board's clock now (ticks), through a clock request.
+inline uint32_t board_ticks(stepchoir::Board &b, uint8_t seq = 1) {
+  b.send({sc::kMsgClockReq, seq});
+  auto r = b.wait_reply(sc::kMsgClock, 5000);
+  if (!r) throw std::runtime_error("no clock reply");
+  return sc::get_u32(&(*r)[2]);
+}
+
+// An `at` payload: entries start at board time at_ticks.
+inline std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::PeriodEntry> &entries) {
+  std::vector<uint8_t> p{sc::kMsgAt, 0, 0, 0, 0};
+  sc::put_u32(&p[1], at_ticks);
+  const auto e = stepchoir::periods_payload(entries);
+  p.insert(p.end(), e.begin(), e.end());
+  return p;
+}
+
+// Sends frames back to back until the board process exits or `stop` is set, draining replies:
+// heartbeats and status requests, the traffic a host keeps up while music plays.
+inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atomic<bool> *stop = nullptr) {
+  const auto hb = stepchoir::frame({sc::kMsgHeartbeat});
+  const auto st = stepchoir::frame({sc::kMsgStatusReq});
+  std::vector<uint8_t> burst;
+  for (int i = 0; i < 64; ++i) burst.insert(burst.end(), hb.begin(), hb.end());
+  burst.insert(burst.end(), st.begin(), st.end());
+  size_t frames = 0;
+  uint8_t sink[4096];
+  while (vb.running() && !(stop && *stop)) {
+    if (!b.link().write(burst.data(), burst.size())) break;
+    frames += 65;
+    while (b.link().read(sink, sizeof sink, 0) > 0) {
+    }
+  }
+  return frames;
+}
+
+}  // namespace e2e
+
+#endif  // STEPCHOIR_TESTS_E2E_UTIL_H

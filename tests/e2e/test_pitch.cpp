@@ -1,0 +1,94 @@
+// test_pitch.cpp: the real firmware on the virtual board plays every motor in tune, on
+// time to the cycle, with frames arriving at full speed meanwhile (uno and mega).
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+
+#include "analysis.h"
+#include "e2e_util.h"
+#include "trace.h"
+
+using namespace stepchoir;
+namespace tr = sc::trace;
+
+namespace {
+
+// Chords (MIDI notes), one column per motor: every motor plays low, middle and high notes,
+// together covering MIDI 24-108 (32.7 Hz to 4186 Hz).
+const int kChords[4][5] = {
+    {24, 50, 77, 108, 45},
+    {30, 57, 84, 101, 62},
+    {36, 64, 91, 96, 73},
+    {43, 70, 88, 105, 99},
+};
+const double kChordSeconds = 1.0;
+const double kSettleSeconds = 0.05;  // skip the first edges of each chord window
+
+// Plays the chords on `board_name`, flooding frames, and returns the trace.
+tr::Trace play_chords(const std::string &board_name, std::vector<std::vector<uint32_t>> *periods) {
+  const std::string trace_path = e2e::scratch("pitch-" + board_name + ".csv");
+  const double seconds = 0.3 + 4 * kChordSeconds + 0.1;
+  VboardProcess vb({"--board", board_name, "--no-pacing", "--seconds", std::to_string(seconds), "--trace",
+                    trace_path, "--quiet"});
+  Board b(open_link(vb.pty()));
+  const Caps caps = b.hello();
+  const uint32_t t0 = e2e::board_ticks(b) + uint32_t(0.2 * caps.f_cpu_hz);
+  for (int c = 0; c < 4; ++c) {
+    std::vector<sc::PeriodEntry> entries;
+    std::vector<uint32_t> ps;
+    for (uint8_t m = 0; m < caps.motor_count; ++m) {
+      const uint32_t p = hz_to_period_q8(note_hz(kChords[c][m]), caps.f_cpu_hz);
+      entries.push_back({m, p});
+      ps.push_back(p);
+    }
+    periods->push_back(ps);
+    b.send(e2e::at_payload(t0 + uint32_t(c * kChordSeconds * caps.f_cpu_hz), entries));
+  }
+  const size_t frames = e2e::flood_until_exit(b, vb);
+  INFO("frames sent " << frames);
+  CHECK(frames > 1000);
+  REQUIRE(vb.wait() == 0);
+  tr::Trace t = tr::read_trace(trace_path);
+  // the chord times in the trace's cycles: board ticks count from power-up, as cycles do
+  t.summary_lines.push_back("t0=" + std::to_string(t0));
+  return t;
+}
+
+// Checks pitch and timing of every motor in every chord window.
+void check_chords(const std::string &board_name) {
+  std::vector<std::vector<uint32_t>> periods;
+  const tr::Trace t = play_chords(board_name, &periods);
+  const uint64_t t0 = std::stoull(t.summary_lines.back().substr(3));
+  double worst_cents = 0, worst_p99_us = 0, worst_max_us = 0;
+  for (size_t c = 0; c < periods.size(); ++c) {
+    for (size_t m = 0; m < periods[c].size(); ++m) {
+      const uint64_t from = t0 + uint64_t((c * kChordSeconds + kSettleSeconds) * t.f_cpu_hz);
+      const uint64_t to = t0 + uint64_t((c + 1) * kChordSeconds * t.f_cpu_hz);
+      const auto edges = tr::rise_cycles_in_window(t.motor[m].steps, from, to);
+      INFO(board_name << " chord " << c << " motor " << m << " MIDI " << kChords[c][m] << ": " << edges.size()
+                      << " edges");
+      REQUIRE(edges.size() >= 25);
+      const tr::PitchFit f = tr::fit_edges(edges, periods[c][m] / 256.0, t.f_cpu_hz);
+      INFO("cents " << f.cents_error << " p99 " << f.residual_p99_us << " us, max " << f.residual_max_us << " us");
+      CHECK(std::abs(f.cents_error) < 0.05);
+      CHECK(f.residual_p99_us < 2.0);
+      CHECK(f.residual_max_us < 8.0);
+      worst_cents = std::max(worst_cents, std::abs(f.cents_error));
+      worst_p99_us = std::max(worst_p99_us, f.residual_p99_us);
+      worst_max_us = std::max(worst_max_us, f.residual_max_us);
+    }
+  }
+  for (size_t m = 0; m < t.motor.size(); ++m) {
+    const auto w = tr::min_pulse_width_cycles(t.motor[m].steps);
+    REQUIRE(w);
+    CHECK(*w >= 2 * t.f_cpu_hz / 1e6);
+  }
+  std::printf("%s: worst |cents| %.5f, worst p99 %.3f us, worst max %.3f us\n", board_name.c_str(), worst_cents,
+              worst_p99_us, worst_max_us);
+}
+
+}  // namespace
+
+TEST_CASE("uno: every motor in tune and on time across MIDI 24-108, frames at full speed") { check_chords("uno"); }
+
+TEST_CASE("mega: every motor in tune and on time across MIDI 24-108, frames at full speed") { check_chords("mega"); }
