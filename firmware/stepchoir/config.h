@@ -4,6 +4,8 @@
 
 #include <stdint.h>
 
+#include "src/stepchoir_protocol.h"
+
 namespace cfg {
 
 // Silence every motor and disable the drivers when no frame arrived for this long (ms).
@@ -20,18 +22,38 @@ static const uint8_t kRxRingBytes = 128;
 // UART transmit ring (bytes, power of two); replies are rare and at most one frame each.
 static const uint8_t kTxRingBytes = 128;
 
-// Edges closer than this after a burst's first edge are played inside the same step ISR, each
-// at its own time by busy-waiting (ticks = CPU cycles). Longer keeps more edges exact but keeps
-// interrupts off longer: 8 us + the 2 us pulse stays inside the 15 us the UART allows.
-static const uint16_t kChainTicks = 128;
+// A motor due within this long after the previous edge is played in the same burst (ticks =
+// CPU cycles): going back through the ISR loop and into a new burst takes about this long, so
+// it would be late otherwise (measured: 450-600 cycles with the ISR's bookkeeping in between).
+static const uint16_t kComebackTicks = 700;
 
-// Minimum lead when arming the compare unit (ticks): closer deadlines are busy-waited instead,
-// since the compare match could pass before OCR1A is written.
-static const uint8_t kMinLeadTicks = 48;
+// A burst never runs longer than this (ticks), and stops this much before a played motor's own
+// next step, which needs rescheduling first.
+static const uint16_t kMaxBurstTicks = 4000;
+static const uint16_t kRescheduleTicks = 400;
 
-// A motor that starts from silence plays its first edge this long after the command (ticks):
-// long enough to insert it in the sorted order and arm the timer before it is due. 15 us.
-static const uint8_t kStartLeadTicks = 240;
+// The step ISR turns interrupts off this long before an edge and busy-waits for it, so the
+// raise is on the exact tick whatever ran before. Longer than the longest other ISR (the
+// UART receive ISR: 67 cycles measured) plus a wait-loop pass.
+static const uint8_t kCliLeadTicks = 64;
+
+// The compare unit fires this long before a deadline: time for the ISR's prologue (run with
+// interrupts on) and a nested UART ISR, before kCliLeadTicks. 16 us.
+static const uint16_t kEarlyTicks = 450;
+
+// An edge due within this long is waited for rather than starting a piece of other work: the
+// longest piece (a command, ~350 cycles) stretched by the UART's ISR nesting at full speed,
+// plus kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
+static const uint16_t kSoonTicks = 900;
+
+// How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
+// few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is
+// reliable there.
+static const uint8_t kMinLeadTicks = 200;
+
+// A motor that starts from silence plays its first edge this long after the step ISR took
+// its command (ticks): the ISR is running then, so this only has to cover its own loop.
+static const uint16_t kStartLeadTicks = 600;
 
 // The step ISR wakes at least this often (ticks) to extend the 16-bit timer to 32 bits.
 static const uint16_t kWakeTicks = 32768;
@@ -61,9 +83,12 @@ static const uint32_t kDefaultTravelSteps = 3200;
 static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");
-static_assert(kChainTicks + kPulseUsMax * 16u <= 320u, "chain wait + longest pulse: at most 20 us with interrupts off");
+static_assert(kCliLeadTicks + kPulseUsMax * 16u <= 320u, "lead + longest pulse: at most 20 us with interrupts off");
+static_assert(kRescheduleTicks < (sc::kPeriodQ8Min >> sc::kPeriodFracBits) + 200u,
+              "a played motor is rescheduled before its next step");
+static_assert(kSoonTicks > kEarlyTicks + kMinLeadTicks, "an armed edge is never already soon");
 static_assert(kWakeTicks <= 32768u, "kWakeTicks: the 16-bit timer extension needs <= 32768");
-static_assert(kStartLeadTicks > kMinLeadTicks, "start lead must exceed the arming lead");
+static_assert(kStartLeadTicks > kCliLeadTicks, "start lead covers the wait before an edge");
 
 }  // namespace cfg
 

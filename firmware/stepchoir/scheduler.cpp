@@ -21,9 +21,13 @@ const uint8_t kActiveHigh = 0x04;  // switches read HIGH when pressed
 const uint8_t kRamp = 0x08;        // onset ramp in progress
 const uint8_t kFault = 0x10;       // switch found stuck: ignored from now on
 const uint8_t kLimits = 0x20;      // soft limits on (travel configured)
+const uint8_t kRestrike = 0x40;    // a timed note change waits for its time (restrike_at)
+
+// What the main loop asks of a motor; the step ISR carries it out (see post()).
+enum Command : uint8_t { kCmdNone = 0, kCmdPlay, kCmdPlayAt };
 
 struct Motor {
-  uint32_t deadline;          // ticks of the next STEP rising edge
+  uint32_t deadline;          // ticks of the next STEP rising edge (of the last one while played)
   uint32_t period_q8;         // current period, ticks q8 (0 = silent)
   uint8_t deadline_frac;      // 1/256 tick
   uint8_t flags;
@@ -36,78 +40,111 @@ struct Motor {
   int32_t position;           // steps
   int32_t limit_hi, limit_lo; // soft limits, steps
   uint32_t travel_steps;
-  uint32_t target_q8;         // ramp target period
+  uint32_t target_q8;         // ramp target period, or the period a restrike switches to
   uint32_t ramp_q8;           // ramp: period shrink per step
   uint32_t start_q8;          // ramp: first period (0 = no ramp)
   uint32_t released_since;    // ticks: the switch has read released since then
+  uint32_t restrike_at;       // ticks: when a timed note change on a sounding motor strikes
   uint16_t pressed_steps;     // steps taken while the switch still reads pressed
+  // Mailbox, written by the main loop with interrupts off, read by the step ISR.
+  uint8_t cmd;                // Command
+  uint32_t cmd_period_q8;
+  uint32_t cmd_at;
 };
 
 Motor g_motor[5];
 uint8_t g_count;
-uint8_t g_order[5];            // sounding motors, earliest deadline first
+Motor *g_order[5];             // sounding motors not yet played, earliest deadline first
 volatile uint8_t g_active;     // how many of g_order are valid
+Motor *g_played[5];            // motors stepped by a burst, waiting for their next deadline
+uint8_t g_played_count;
+Motor *g_moved[8];             // motors whose step waits for its position/endstop bookkeeping
+uint8_t g_moved_head, g_moved_count;
+volatile uint8_t g_cmd_mask;   // bit m: motor m has a command in its mailbox
 uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 32768 ticks)
-bool g_arm_is_edge;            // the armed time is g_order[0]'s deadline (else a timer wake)
 volatile uint16_t g_reversals;
 volatile uint16_t g_late_edges;
 volatile uint8_t g_motor_fault;
+// Between two ISR invocations g_played, g_moved and (unless the main loop just posted)
+// g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
-const uint16_t kLateTicks = 128;  // an edge raised more than 8 us after its deadline is late
+const uint16_t kLateTicks = 32;  // an edge raised more than 2 us after its deadline is late
 
-// Called from: step ISR, main loop (interrupts off). Inserts motor mi by deadline.
-void order_insert(uint8_t mi) {
-  const uint32_t d = g_motor[mi].deadline;
+// Called from: step ISR. Inserts motor m by deadline.
+void order_insert(Motor *m) {
+  const uint32_t d = m->deadline;
   uint8_t pos = g_active;
-  while (pos > 0 && (int32_t)(g_motor[g_order[pos - 1]].deadline - d) > 0) {
+  while (pos > 0 && (int32_t)(g_order[pos - 1]->deadline - d) > 0) {
     g_order[pos] = g_order[pos - 1];
     --pos;
   }
-  g_order[pos] = mi;
+  g_order[pos] = m;
   g_active = (uint8_t)(g_active + 1);
 }
 
-// Called from: main loop (interrupts off). Removes motor mi if it is sounding.
-void order_remove(uint8_t mi) {
+// Called from: step ISR. Removes motor m if it is in the order.
+void order_remove(Motor *m) {
   uint8_t n = g_active, i = 0;
-  while (i < n && g_order[i] != mi) ++i;
+  while (i < n && g_order[i] != m) ++i;
   if (i == n) return;
   for (; i + 1 < n; ++i) g_order[i] = g_order[i + 1];
   g_active = (uint8_t)(n - 1);
 }
 
-// Called from: step ISR (interrupts off). Raises every motor due within kChainTicks of the
-// armed time, each at its own tick, holds the longest pulse, lowers them. Returns how many.
-// Cycles: about 30 per motor raised + the pulse; interrupts stay off throughout.
-inline uint8_t burst() {
-  const uint32_t start = g_armed;
+// Called from: step ISR and main loop, interrupts off. Current board time in ticks.
+inline uint32_t now_locked() { return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed); }
+
+// Called from: step ISR, interrupts on, the head due within kSoonTicks. Raises the head, then
+// every next motor due within kComebackTicks of the previous edge (the ISR could not come back
+// for it in time), each on its own tick, lowering each STEP once its pulse has passed.
+// Interrupts are off only from kCliLeadTicks before each raise until it is done. The burst
+// stops before any played motor's own next step could be late. Played motors move from
+// g_order to g_played.
+// Cycles with interrupts off: kCliLeadTicks + about 40 per raise.
+__attribute__((noinline)) void burst() {
   const uint8_t active = g_active;
-  uint8_t n = 0;
-  uint16_t pulse = 0;
-  while (n < active) {
-    Motor &m = g_motor[g_order[n]];
-    if ((int32_t)(m.deadline - start) > (int32_t)cfg::kChainTicks) break;
-    const uint16_t t = (uint16_t)m.deadline;
+  uint16_t raised_at[5];
+  uint8_t n = 0, low = 0;
+  Motor *m = g_order[0];
+  uint32_t deadline = m->deadline;
+  uint32_t horizon = deadline + cfg::kMaxBurstTicks;
+  for (;;) {
+    const uint16_t t = (uint16_t)deadline;
+    while ((int16_t)(t - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+      if (low < n && (uint16_t)(TCNT1 - raised_at[low]) >= g_order[low]->pulse_ticks) {
+        *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop and
+        ++low;                                                            // nested ISRs keep off
+      }
+    }
+    cli();
     while ((int16_t)(t - TCNT1) > 0) {
     }
-    *m.step_port |= m.step_mask;
+    *m->step_port |= m->step_mask;
     if ((uint16_t)(TCNT1 - t) > kLateTicks) g_late_edges = (uint16_t)(g_late_edges + 1);
-    if (m.pulse_ticks > pulse) pulse = m.pulse_ticks;
-    ++n;
+    sei();
+    raised_at[n++] = t;
+    const uint32_t own_next = deadline + (m->period_q8 >> 8) - cfg::kRescheduleTicks;
+    if ((int32_t)(own_next - horizon) < 0) horizon = own_next;
+    if (n == active) break;
+    m = g_order[n];
+    const uint32_t next = m->deadline;
+    if ((int32_t)(next - horizon) > 0 || (int32_t)(next - deadline) > (int32_t)cfg::kComebackTicks) break;
+    deadline = next;
   }
-  const uint16_t last = TCNT1;
-  while ((uint16_t)(TCNT1 - last) < pulse) {
+  while (low < n) {
+    while ((uint16_t)(TCNT1 - raised_at[low]) < g_order[low]->pulse_ticks) {
+    }
+    *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;
+    ++low;
   }
-  for (uint8_t i = 0; i < n; ++i) {
-    Motor &m = g_motor[g_order[i]];
-    *m.step_port &= (uint8_t)~m.step_mask;
-  }
-  return n;
+  for (uint8_t i = 0; i < n; ++i) g_played[g_played_count++] = g_order[i];
+  for (uint8_t i = n; i < active; ++i) g_order[i - n] = g_order[i];
+  g_active = (uint8_t)(active - n);
 }
 
-// Called from: step ISR bookkeeping (interrupts on, OCIE1A off). Accounts one step of m:
-// position, endstop bounce-back, soft limits, onset ramp, next deadline.
-inline void advance(Motor &m) {
+// Called from: step ISR (interrupts on). Position, endstop bounce-back and soft limits after
+// one step of m; a reversal turns DIR before the motor's next step.
+inline void account_step(Motor &m) {
   const bool up = m.flags & kUp;
   m.position += up ? 1 : -1;
   bool reverse = false;
@@ -135,9 +172,15 @@ inline void advance(Motor &m) {
   if (!reverse && (m.flags & kLimits)) reverse = up ? m.position >= m.limit_hi : m.position <= m.limit_lo;
   if (reverse) {
     m.flags ^= kUp;
-    *m.dir_port ^= m.dir_mask;
+    *m.dir_port ^= m.dir_mask;  // main loop suspended, nested ISRs leave the ports alone
     g_reversals = (uint16_t)(g_reversals + 1);
   }
+}
+
+// Called from: step ISR (interrupts on). Next deadline of m after the step at m.deadline: one
+// period on (fraction carried), the onset ramp shortening the period step by step; a pending
+// restrike lands exactly on its time instead, with the new period from there.
+inline void next_deadline(Motor &m) {
   if (m.flags & kRamp) {
     if (m.period_q8 > m.target_q8 + m.ramp_q8) {
       m.period_q8 -= m.ramp_q8;
@@ -147,96 +190,164 @@ inline void advance(Motor &m) {
     }
   }
   const uint16_t frac = (uint16_t)m.deadline_frac + (uint8_t)m.period_q8;
-  m.deadline_frac = (uint8_t)frac;
-  m.deadline += (m.period_q8 >> 8) + (frac >> 8);
-}
-
-// Called from: step ISR and main loop, interrupts off. Arms OCR1A for the next deadline or a
-// timer wake. Returns false when the head is due too soon to arm: the caller plays it now.
-inline bool arm() {
-  if (g_active) {
-    const uint32_t head = g_motor[g_order[0]].deadline;
-    if ((int32_t)(head - g_armed) <= (int32_t)cfg::kWakeTicks) {
-      g_armed = head;
-      g_arm_is_edge = true;
-      OCR1A = (uint16_t)head;
-      if ((int16_t)((uint16_t)head - TCNT1) < (int16_t)cfg::kMinLeadTicks) return false;
-      TIFR1 = _BV(OCF1A);
-      return true;
-    }
+  const uint32_t next = m.deadline + (m.period_q8 >> 8) + (frac >> 8);
+  if ((m.flags & kRestrike) && (int32_t)(next - m.restrike_at) >= 0) {
+    m.deadline = m.restrike_at;
+    m.deadline_frac = 0;
+    m.period_q8 = m.target_q8;
+    m.flags &= (uint8_t)~kRestrike;
+    return;
   }
-  g_armed += cfg::kWakeTicks;
-  g_arm_is_edge = false;
-  OCR1A = (uint16_t)g_armed;
-  TIFR1 = _BV(OCF1A);
-  return true;
+  m.deadline_frac = (uint8_t)frac;
+  m.deadline = next;
 }
 
-// Called from: main loop, interrupts off. Current board time in ticks.
-inline uint32_t now_locked() { return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed); }
-
-// Called from: main loop, interrupts off. Re-arms when motor mi became the earliest deadline.
-inline void rearm_for(uint8_t mi) {
-  if (g_order[0] != mi) return;
-  if (g_arm_is_edge && (int32_t)(g_motor[mi].deadline - g_armed) >= 0) return;
-  g_armed = g_motor[mi].deadline;
-  g_arm_is_edge = true;
-  OCR1A = (uint16_t)g_armed;
-  TIFR1 = _BV(OCF1A);
+// Called from: step ISR (interrupts on), after a burst. Gives the played motor whose next step
+// comes first its next deadline and its place in the order, and queues its bookkeeping.
+__attribute__((noinline)) void reschedule_one() {
+  uint8_t best = 0;
+  for (uint8_t i = 1; i < g_played_count; ++i)
+    if ((int32_t)(g_played[i]->deadline + (g_played[i]->period_q8 >> 8) - g_played[best]->deadline -
+                  (g_played[best]->period_q8 >> 8)) < 0)
+      best = i;
+  Motor *m = g_played[best];
+  g_played[best] = g_played[--g_played_count];
+  next_deadline(*m);
+  order_insert(m);
+  g_moved[(uint8_t)(g_moved_head + g_moved_count++) & 7] = m;
 }
 
-// Called from: main loop. Starts a silent motor: direction with more room ahead (the
-// music2gcode border rule, never into a pressed switch), first edge at `first` ticks.
-void start(uint8_t mi, uint32_t period_q8, uint32_t first) {
-  Motor &m = g_motor[mi];
+// Called from: step ISR (interrupts on). Position and endstop bookkeeping of the oldest step.
+__attribute__((noinline)) void account_one() {
+  Motor *m = g_moved[g_moved_head];
+  g_moved_head = (uint8_t)((g_moved_head + 1) & 7);
+  --g_moved_count;
+  account_step(*m);
+}
+
+// Called from: step ISR (interrupts on). Starts a silent motor: direction with more room
+// ahead (the music2gcode border rule, never into a pressed switch), first edge at `first`, or
+// as soon as it can be played if that has passed.
+void start(Motor &m, uint32_t period_q8, uint32_t first) {
   bool up = m.flags & kUp;
   if (m.flags & kLimits) up = m.position < (int32_t)(m.travel_steps / 2);
   volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
   const uint8_t mask = up ? m.sw_up_mask : m.sw_down_mask;
   if (sw && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    if (up) { m.flags |= kUp; *m.dir_port |= m.dir_mask; }
-    else { m.flags &= (uint8_t)~kUp; *m.dir_port &= (uint8_t)~m.dir_mask; }
-    const uint32_t now = now_locked();
-    if ((int32_t)(first - now) < (int32_t)cfg::kStartLeadTicks) first = now + cfg::kStartLeadTicks;
-    m.deadline = first;
+  if (up) {
+    m.flags |= kUp;
+    *m.dir_port |= m.dir_mask;
+  } else {
+    m.flags &= (uint8_t)~kUp;
+    *m.dir_port &= (uint8_t)~m.dir_mask;
+  }
+  const uint32_t soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
+  m.deadline = (int32_t)(first - soonest) < 0 ? soonest : first;
+  m.deadline_frac = 0;
+  m.flags &= (uint8_t)~(kRamp | kRestrike);
+  if (m.start_q8 > period_q8) {
+    m.period_q8 = m.start_q8;
+    m.target_q8 = period_q8;
+    m.flags |= kRamp;
+  } else {
+    m.period_q8 = period_q8;
+  }
+  order_insert(&m);
+}
+
+// Called from: step ISR (interrupts on). A sounding motor takes a new period, keeping its
+// phase: the next edge comes one new period after the last one (or soon, if that is past).
+void retune(Motor &m, uint32_t period_q8) {
+  uint32_t soonest;
+  m.flags &= (uint8_t)~(kRamp | kRestrike);
+  if (m.period_q8 == period_q8) return;
+  uint16_t frac = (uint16_t)m.deadline_frac - (uint8_t)m.period_q8;
+  const uint32_t last = m.deadline - (m.period_q8 >> 8) - ((frac >> 8) ? 1 : 0);
+  frac = (uint16_t)(uint8_t)frac + (uint8_t)period_q8;
+  uint32_t next = last + (period_q8 >> 8) + (frac >> 8);
+  soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
+  if ((int32_t)(next - soonest) < 0) {
+    next = soonest;
+    frac = 0;
+  }
+  order_remove(&m);
+  m.deadline = next;
+  m.deadline_frac = (uint8_t)frac;
+  m.period_q8 = period_q8;
+  order_insert(&m);
+}
+
+// Called from: step ISR (interrupts on). Carries out one posted command.
+__attribute__((noinline)) void apply_one() {
+  uint8_t mi = 0;
+  while (!(g_cmd_mask & (1u << mi))) ++mi;
+  Motor &m = g_motor[mi];
+  uint8_t cmd;
+  uint32_t period, at;
+  cli();
+  cmd = m.cmd;
+  period = m.cmd_period_q8;
+  at = m.cmd_at;
+  m.cmd = kCmdNone;
+  g_cmd_mask &= (uint8_t)~(1u << mi);
+  const uint32_t now = now_locked();
+  sei();
+  const uint32_t soonest = now + cfg::kStartLeadTicks;
+  const bool timed = cmd == kCmdPlayAt && (int32_t)(at - soonest) > 0;
+  if (period == sc::kPeriodSilent) {
+    order_remove(&m);
+    m.period_q8 = 0;
+    m.flags &= (uint8_t)~(kRamp | kRestrike);
+  } else if (m.period_q8 == 0) {
+    start(m, period, timed ? at : soonest);
+  } else if (!timed) {
+    retune(m, period);
+  } else if ((int32_t)(m.deadline - at) >= 0) {  // next edge not before the time: strike on it
+    order_remove(&m);
+    m.deadline = at;
     m.deadline_frac = 0;
-    if (m.start_q8 > period_q8) {
-      m.period_q8 = m.start_q8;
-      m.target_q8 = period_q8;
-      m.flags |= kRamp;
-    } else {
-      m.period_q8 = period_q8;
-      m.flags &= (uint8_t)~kRamp;
-    }
-    order_insert(mi);
-    rearm_for(mi);
+    m.period_q8 = period;
+    m.flags &= (uint8_t)~(kRamp | kRestrike);
+    order_insert(&m);
+  } else {  // strike on the time, after the edges still due before it
+    m.target_q8 = period;
+    m.restrike_at = at;
+    m.flags = (uint8_t)((m.flags & ~kRamp) | kRestrike);
   }
 }
 
-// Called from: main loop. Changes a sounding motor's period, keeping its phase: the next
-// edge comes one new period after the last one (or at once if that is already past).
-void retune(uint8_t mi, uint32_t period_q8) {
+// Called from: step ISR, interrupts off. Arms OCR1A kEarlyTicks before the next deadline, or
+// for a timer wake. Returns false when the next deadline is due too soon to arm for: the ISR
+// plays it now.
+__attribute__((noinline)) bool arm() {
+  const uint32_t now = now_locked();
+  uint32_t target = now + cfg::kWakeTicks;
+  if (g_active) {
+    const uint32_t head = g_order[0]->deadline;
+    if ((int32_t)(head - now) <= (int32_t)cfg::kSoonTicks) return false;
+    if ((int32_t)(head - cfg::kEarlyTicks - now) <= (int32_t)cfg::kWakeTicks) target = head - cfg::kEarlyTicks;
+  }
+  g_armed = target;
+  OCR1A = (uint16_t)target;
+  TIFR1 = _BV(OCF1A);
+  return true;
+}
+
+// Called from: main loop. Leaves a command in motor mi's mailbox and makes sure the step ISR
+// comes for it within kMinLeadTicks. Interrupts off for about 60 cycles.
+void post(uint8_t mi, uint8_t cmd, uint32_t period_q8, uint32_t at) {
   Motor &m = g_motor[mi];
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    if (m.period_q8 == period_q8 && !(m.flags & kRamp)) return;
-    // last edge = deadline - old period; next = last + new period (both with fractions)
-    uint16_t frac = (uint16_t)m.deadline_frac - (uint8_t)m.period_q8;
-    uint32_t last = m.deadline - (m.period_q8 >> 8) - ((frac >> 8) ? 1 : 0);
-    frac = (uint16_t)(uint8_t)frac + (uint8_t)period_q8;
-    uint32_t next = last + (period_q8 >> 8) + (frac >> 8);
-    const uint32_t now = now_locked();
-    if ((int32_t)(next - now) < (int32_t)cfg::kStartLeadTicks) {
-      next = now + cfg::kStartLeadTicks;
-      frac = 0;
+    m.cmd = cmd;
+    m.cmd_period_q8 = period_q8;
+    m.cmd_at = at;
+    g_cmd_mask |= (uint8_t)(1u << mi);
+    const uint32_t soon = now_locked() + cfg::kMinLeadTicks;
+    if ((int32_t)(g_armed - soon) > 0) {
+      g_armed = soon;
+      OCR1A = (uint16_t)soon;
+      TIFR1 = _BV(OCF1A);
     }
-    m.deadline = next;
-    m.deadline_frac = (uint8_t)frac;
-    m.period_q8 = period_q8;
-    m.flags &= (uint8_t)~kRamp;
-    order_remove(mi);
-    order_insert(mi);
-    rearm_for(mi);
   }
 }
 
@@ -261,12 +372,16 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     m.sw_down_mask = pio::mask(w.min_switch);
     m.flags = kUp | kArmed;
     m.period_q8 = 0;
+    m.cmd = kCmdNone;
     m.pulse_ticks = (uint16_t)(cfg::kPulseUsA4988 * (F_CPU / 1000000ul));
     Motion motion = {cfg::kDefaultTravelSteps, m.pulse_ticks, false, 0, 0};
     set_motion(i, motion);
   }
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_active = 0;
+    g_played_count = 0;
+    g_moved_count = 0;
+    g_cmd_mask = 0;
     TCCR1A = 0;               // normal mode: simavr times it exactly (phase-correct PWM it does not)
     TCCR1B = _BV(CS10);       // no prescaler
     TCCR1C = 0;
@@ -302,42 +417,57 @@ void set_motion(uint8_t mi, const Motion &motion) {
 void silence_all() {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_active = 0;
-    for (uint8_t i = 0; i < g_count; ++i) g_motor[i].period_q8 = 0;
+    g_cmd_mask = 0;
+    for (uint8_t i = 0; i < g_count; ++i) {
+      g_motor[i].period_q8 = 0;
+      g_motor[i].cmd = kCmdNone;
+    }
   }
 }
 
 bool sounding(uint8_t mi) {
   bool s;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { s = g_motor[mi].period_q8 != 0; }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { s = g_motor[mi].period_q8 != 0 || g_motor[mi].cmd != kCmdNone; }
   return s;
 }
 
 }  // namespace sched
 
-// Step ISR. Who: Timer1 compare A, at each armed deadline or timer wake (every <= 2 ms).
-// Budget: interrupts off for the burst (30 cycles a motor + the chain wait <= kChainTicks +
-// the pulse), then bookkeeping with interrupts on (about 120 cycles a motor). Measured worst
-// cycles are in bench/results (tools/bench/isr_bench.sh).
+// Step ISR. Who: Timer1 compare A, kEarlyTicks before each deadline, every 2 ms to extend the
+// timer, or kMinLeadTicks after the main loop posted a command. It masks itself and runs with
+// interrupts on (the UART nests freely) except for each burst: from kCliLeadTicks before an
+// edge until its pulse is lowered. Work comes in small pieces (one motor's rescheduling, one
+// step's bookkeeping, one command), and before each piece it checks that no edge is due
+// within kSoonTicks. It returns only with nothing left to do.
+// Measured on the virtual board: bench/results/pitch-<board>.md.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
+  TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
+  sei();
   for (;;) {
-    if (g_arm_is_edge && (int16_t)(TCNT1 - (uint16_t)g_armed) >= -(int16_t)cfg::kMinLeadTicks) {
-      const uint8_t n = burst();
-      TIMSK1 &= (uint8_t)~_BV(OCIE1A);
-      sei();
-      uint8_t moved[5];
-      for (uint8_t i = 0; i < n; ++i) {
-        moved[i] = g_order[i];
-        advance(g_motor[moved[i]]);
+    const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
+    g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
+    if (g_active) {
+      const uint32_t head = g_order[0]->deadline;
+      if ((int32_t)(head - now) <= (int32_t)cfg::kSoonTicks) {
+        burst();
+        continue;
       }
-      const uint8_t active = g_active;
-      for (uint8_t i = n; i < active; ++i) g_order[i - n] = g_order[i];
-      g_active = (uint8_t)(active - n);
-      for (uint8_t i = 0; i < n; ++i) order_insert(moved[i]);
-      cli();
-      TIMSK1 |= _BV(OCIE1A);
     }
-    if (arm()) return;
+    if (g_played_count) {
+      reschedule_one();
+    } else if (g_moved_count) {
+      account_one();
+    } else if (g_cmd_mask) {
+      apply_one();
+    } else {
+      cli();
+      if (arm()) {
+        TIMSK1 |= _BV(OCIE1A);
+        return;  // reti sets I again
+      }
+      sei();
+    }
   }
 }
 
@@ -350,26 +480,13 @@ uint32_t now_ticks() {
 }
 
 void set_period(uint8_t m, uint32_t period_q8) {
-  if (period_q8 == sc::kPeriodSilent) {
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      sched::order_remove(m);
-      sched::g_motor[m].period_q8 = 0;
-    }
-  } else if (sched::sounding(m)) {
-    sched::retune(m, period_q8);
-  } else {
-    drivers::enable_for(m);
-    sched::start(m, period_q8, 0);
-  }
+  if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
+  sched::post(m, sched::kCmdPlay, period_q8, 0);
 }
 
 void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
-  if (period_q8 != sc::kPeriodSilent && !sched::sounding(m)) {
-    drivers::enable_for(m);
-    sched::start(m, period_q8, at_ticks);
-  } else {
-    set_period(m, period_q8);
-  }
+  if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
+  sched::post(m, sched::kCmdPlayAt, period_q8, at_ticks);
 }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) {

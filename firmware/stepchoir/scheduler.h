@@ -6,15 +6,19 @@
 //
 //   deadline(k+1) = deadline(k) + period_q8 / 256      (32-bit ticks + 8-bit fraction)
 //
-//            |<-- burst: raised at their own ticks -->|<- pulse ->|  bookkeeping (I=1)
-//   STEP x   ____|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|______________________
-//   STEP y   _____________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|______________________
-//            ^ OCR1A match                                       ^ lower, sei(), advance, sort
+//   OCR1A match (kEarlyTicks before the deadline): prologue and waiting with interrupts on
+//            | cli kCliLeadTicks before the edge
+//            v        v deadline: raise       v pulse over: lower, sei()
+//   STEP x   _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|_____________________________________
+//   STEP y   ______________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|_____  (due within kChainTicks: same burst)
+//                                              then, one motor at a time with interrupts on:
+//                                              position, endstops, soft limits, ramp,
+//                                              deadline += period, sorted insert
 //
-// The ISR raises every motor due within cfg::kChainTicks of the match, each at its own tick,
-// holds the pulse, lowers them, then does the bookkeeping (position, endstops, soft limits,
-// next deadline, sorted order) with interrupts enabled so the UART is never starved.
-// Measured on the virtual board: see docs/ARCHITECTURE.md and bench/results.
+// Every raise waits for its own deadline tick, whichever way the ISR got there, so edges
+// carry no entry-latency jitter. Between two motors' bookkeeping the ISR checks whether the
+// next edge is due within kSoonTicks and plays it first. Measured on the virtual board: see
+// docs/ARCHITECTURE.md and bench/results.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H
 

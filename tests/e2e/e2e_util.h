@@ -4,6 +4,7 @@
 #define STEPCHOIR_TESTS_E2E_UTIL_H
 
 #include <atomic>
+#include <optional>
 #include <chrono>
 #include <cstring>
 #include <string>
@@ -39,19 +40,34 @@ inline std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::
 }
 
 // Sends frames back to back until the board process exits or `stop` is set, draining replies:
-// heartbeats and status requests, the traffic a host keeps up while music plays.
-inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atomic<bool> *stop = nullptr) {
+// heartbeats and status requests, the traffic a host keeps up while music plays. The last
+// status reply seen goes to *last_status.
+inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atomic<bool> *stop = nullptr,
+                               std::optional<stepchoir::Status> *last_status = nullptr,
+                               int pause_us = 0) {
   const auto hb = stepchoir::frame({sc::kMsgHeartbeat});
   const auto st = stepchoir::frame({sc::kMsgStatusReq});
-  std::vector<uint8_t> burst;
-  for (int i = 0; i < 64; ++i) burst.insert(burst.end(), hb.begin(), hb.end());
+  std::vector<uint8_t> burst;  // paced: one heartbeat and one status request a round
+  const int heartbeats = pause_us ? 1 : 64;
+  for (int i = 0; i < heartbeats; ++i) burst.insert(burst.end(), hb.begin(), hb.end());
   burst.insert(burst.end(), st.begin(), st.end());
   size_t frames = 0;
   uint8_t sink[4096];
-  while (vb.running() && !(stop && *stop)) {
-    if (!b.link().write(burst.data(), burst.size())) break;
-    frames += 65;
-    while (b.link().read(sink, sizeof sink, 0) > 0) {
+  sc::FrameDecoder dec;
+  for (bool more = true; more;) {
+    more = vb.running() && !(stop && *stop);
+    if (more && !b.link().write(burst.data(), burst.size())) break;
+    frames += more ? size_t(heartbeats + 1) : 0;
+    if (more && pause_us) std::this_thread::sleep_for(std::chrono::microseconds(pause_us));
+    long n;
+    while ((n = b.link().read(sink, sizeof sink, more ? 0 : 50)) > 0) {
+      for (long i = 0; i < n; ++i) {
+        if (dec.push(sink[i]) != sc::kFrameOk || !last_status || dec.payload()[0] != sc::kMsgStatus) continue;
+        try {
+          *last_status = stepchoir::parse_status(dec.payload(), dec.payload_len());
+        } catch (const std::exception &) {
+        }
+      }
     }
   }
   return frames;

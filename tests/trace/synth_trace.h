@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "analysis.h"
 
 namespace synth {
@@ -68,9 +70,10 @@ inline std::string make_trace_text(const std::vector<std::vector<Note>>& parts, 
   return os.str();
 }
 
-// A scratch directory for test outputs, created on first use.
+// A scratch directory for this test process's outputs, created on first use.
 inline std::filesystem::path scratch_dir() {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "stepchoir_test_trace";
+  std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("stepchoir_test_trace_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   return dir;
 }

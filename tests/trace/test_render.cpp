@@ -50,11 +50,12 @@ bool is_colour(const Image& img, int x, int y, Rgb c) {
 
 }  // namespace
 
-TEST_CASE("WAV: length follows real time, header is canonical 16-bit mono", "[render]") {
+TEST_CASE("WAV: length follows real time - header is canonical 16-bit mono", "[render]") {
   const double kEndS = 1.2, kPpm = 100;
   Trace t = parse_trace(synth::make_trace_text({{{69, 0.1, 1.0}}}, kEndS, kPpm));
-  const size_t expected = size_t(std::ceil(kEndS * synth::kFCpuHz / (synth::kFCpuHz * (1 + kPpm * 1e-6)) * 44100));
-  CHECK(audio_length_samples(t, 44100) == expected);
+  const int rate = kDefaultSampleRateHz;
+  const size_t expected = size_t(std::ceil(kEndS / (1 + kPpm / kPpmPerUnit) * rate));
+  CHECK(audio_length_samples(t, rate) == expected);
   CHECK(expected == 52915);  // 1.2 s less 100 ppm at 44.1 kHz, by hand
   std::vector<int16_t> samples = render_audio(t);
   REQUIRE(samples.size() == expected);
@@ -69,8 +70,8 @@ TEST_CASE("WAV: length follows real time, header is canonical 16-bit mono", "[re
   CHECK(le32(b, 16) == 16u);
   CHECK(le16(b, 20) == 1u);      // PCM
   CHECK(le16(b, 22) == 1u);      // mono
-  CHECK(le32(b, 24) == 44100u);  // sample rate
-  CHECK(le32(b, 28) == 88200u);  // byte rate
+  CHECK(le32(b, 24) == uint32_t(rate));      // sample rate
+  CHECK(le32(b, 28) == uint32_t(2 * rate));  // byte rate: 2 bytes a sample
   CHECK(le16(b, 32) == 2u);      // block align
   CHECK(le16(b, 34) == 16u);     // bits
   CHECK(b.substr(36, 4) == "data");
@@ -78,13 +79,14 @@ TEST_CASE("WAV: length follows real time, header is canonical 16-bit mono", "[re
   CHECK(int16_t(le16(b, 44 + 2 * 5000)) == samples[5000]);
 }
 
-TEST_CASE("WAV: peak at -1 dBFS, silent before the first step, rings at the step rate", "[render]") {
+TEST_CASE("WAV: peak at -1 dBFS - silent before the first step - rings at the step rate", "[render]") {
   Trace t = parse_trace(synth::make_trace_text({{{69, 0.1, 0.5}}, {}}, 0.8));
   std::vector<int16_t> s = render_audio(t);
   int peak = 0;
   for (int16_t v : s) peak = std::max(peak, std::abs(int(v)));
-  CHECK(peak == Approx(32767 * std::pow(10.0, -1.0 / 20)).margin(1));
-  const size_t first_step = size_t(0.1 * 44100);
+  CHECK(peak == Approx(32767 * std::pow(10.0, AudioOptions().peak_dbfs / 20)).margin(1));
+  CHECK(peak == 29204);  // -1 dBFS of 32767, by hand
+  const size_t first_step = size_t(0.1 * kDefaultSampleRateHz);
   for (size_t i = 0; i < first_step; ++i) REQUIRE(s[i] == 0);
   // the strongest repetition between 2 ms and 9 ms is one step period: 44100 / 440 = 100.2 samples
   size_t best_lag = 0;
@@ -99,14 +101,20 @@ TEST_CASE("WAV: peak at -1 dBFS, silent before the first step, rings at the step
   CHECK(std::abs(int(s.back())) < 10);
 }
 
-TEST_CASE("WAV: the sample rate scales the length; a trace without steps is silence", "[render]") {
+TEST_CASE("WAV: refuses absurdly long traces instead of allocating gigabytes", "[render]") {
+  Trace t = parse_trace(synth::make_trace_text({{}}, 0.1));
+  t.end_cycle = uint64_t(1e15);  // two years
+  CHECK_THROWS_WITH(render_audio(t), Catch::Contains("audio is limited"));
+}
+
+TEST_CASE("WAV: the sample rate scales the length - a trace without steps is silence", "[render]") {
   Trace t = parse_trace(synth::make_trace_text({{{60, 0, 0.5}}}, 1.0));
   AudioOptions low;
-  low.sample_rate_hz = 22050;
-  CHECK(render_audio(t, low).size() == 22050);
+  low.sample_rate_hz = kDefaultSampleRateHz / 2;
+  CHECK(render_audio(t, low).size() == size_t(kDefaultSampleRateHz / 2));  // 1 s
   Trace quiet = parse_trace(synth::make_trace_text({{}, {}}, 0.25));
   std::vector<int16_t> s = render_audio(quiet);
-  CHECK(s.size() == 11025);
+  CHECK(s.size() == size_t(kDefaultSampleRateHz / 4));  // 0.25 s
   for (int16_t v : s) REQUIRE(v == 0);
   // each motor rings at its own frequency, below Nyquist
   AudioOptions def;
@@ -114,7 +122,7 @@ TEST_CASE("WAV: the sample rate scales the length; a trace without steps is sile
   CHECK(resonator_hz(def, 40) < def.sample_rate_hz / 2.0);
 }
 
-TEST_CASE("PNG: valid file with the right IHDR; libpng reads it back", "[render]") {
+TEST_CASE("PNG: valid file with the right IHDR - libpng reads it back", "[render]") {
   Trace t = parse_trace(synth::make_trace_text(synth::three_motor_scale(), 5.5));
   std::string path = (synth::scratch_dir() / "scale.png").string();
   write_png(path, render_piano_roll(t));
@@ -136,7 +144,7 @@ TEST_CASE("PNG: valid file with the right IHDR; libpng reads it back", "[render]
   CHECK(image.width == uint32_t(kDefaultRollWidthPx));
 }
 
-TEST_CASE("piano roll: each motor's notes appear, higher notes higher, in time order", "[render]") {
+TEST_CASE("piano roll: each motor's notes appear - higher notes higher - in time order", "[render]") {
   // motor 0 plays C5 then later G5; motor 1 plays C3 throughout
   Trace t = parse_trace(synth::make_trace_text({{{72, 0, 1}, {79, 2, 1}}, {{48, 0, 3}}}, 3.0));
   Image img = render_piano_roll(t);

@@ -20,6 +20,12 @@ const char* const kHeader =
     "# stepchoir-vboard trace v1 board=uno f_cpu=16000000 clock_ppm=-25 motors=4 travel_steps=3200\n";
 const char* const kColumns = "event,motor,cycle,value,position,width\n";
 
+#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
+constexpr double kMaxMillionRowsS = 1.0;  // optimised build: the requirement (about 0.1 s measured)
+#else
+constexpr double kMaxMillionRowsS = 5.0;  // unoptimised or sanitised builds run several times slower
+#endif
+
 // Returns the message parse_trace throws for text, or "" if it does not throw.
 std::string parse_error(const std::string& text) {
   try {
@@ -32,7 +38,7 @@ std::string parse_error(const std::string& text) {
 
 }  // namespace
 
-TEST_CASE("reads header, every event kind, end and summary lines", "[trace]") {
+TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") {
   std::string text = std::string(kHeader) + kColumns +
                      "enable,0,5,0,,\n"
                      "step,0,1234567,1,1601,34\n"
@@ -87,7 +93,7 @@ TEST_CASE("time conversions use f_cpu and clock_ppm", "[trace]") {
   CHECK(t.real_f_cpu_hz() == Approx(16000000.0 * (1.0 - 25e-6)));
 }
 
-TEST_CASE("without an end line the end is the last falling edge; CRLF and blank lines are fine", "[trace]") {
+TEST_CASE("without an end line the end is the last falling edge - CRLF and blank lines are fine", "[trace]") {
   std::string text = "# stepchoir-vboard trace v1 f_cpu=8000000 motors=1\r\n\r\n"
                      "event,motor,cycle,value,position,width\r\n"
                      "step,0,100,0,-1,20\r\n"
@@ -214,5 +220,5 @@ TEST_CASE("reads a million rows well under a second", "[trace][speed]") {
   CHECK(t.motor[3].steps.size() == size_t(kRows / 4));
   CHECK(t.motor[3].steps.back().rise_cycle == cycle[3]);
   WARN("1M rows parsed in " << elapsed_s << " s");
-  CHECK(elapsed_s < 1.0);
+  CHECK(elapsed_s < kMaxMillionRowsS);
 }

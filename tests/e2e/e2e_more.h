@@ -1,0 +1,205 @@
+// e2e_more.h: more end-to-end helpers: a virtual board stopped on demand, motor config and
+// control payloads, board-clock polling, line garbage and trace queries for the safety tests.
+#ifndef STEPCHOIR_TESTS_E2E_MORE_H
+#define STEPCHOIR_TESTS_E2E_MORE_H
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "board.h"
+#include "e2e_util.h"
+#include "trace.h"
+
+extern char **environ;
+
+namespace e2e {
+
+// The virtual board as a child process, like VboardProcess, but stop() ends it with SIGTERM
+// (which makes it finish its trace) and hands back its exit status.
+class StoppableVboard {
+ public:
+  // Starts stepchoir-vboard with `args` after the binary name; waits for its pty line.
+  explicit StoppableVboard(const std::vector<std::string> &args) {
+    int out[2];
+    if (pipe(out) != 0) throw std::runtime_error("pipe failed");
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    posix_spawn_file_actions_addclose(&fa, out[0]);
+    std::vector<std::string> all{STEPCHOIR_VBOARD};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char *> argv;
+    for (auto &a : all) argv.push_back(const_cast<char *>(a.c_str()));
+    argv.push_back(nullptr);
+    const int rc = posix_spawn(&pid_, argv[0], &fa, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(out[1]);
+    if (rc != 0) {
+      close(out[0]);
+      throw std::runtime_error(std::string("cannot start ") + STEPCHOIR_VBOARD);
+    }
+    out_ = fdopen(out[0], "r");
+    char line[256];
+    if (!fgets(line, sizeof line, out_)) throw std::runtime_error("virtual board printed no pty line");
+    const std::string s(line);
+    if (s.rfind("pty: ", 0) != 0) throw std::runtime_error("virtual board said: " + s);
+    pty_ = s.substr(5, s.find_last_not_of("\r\n") - 4);
+  }
+
+  StoppableVboard(const StoppableVboard &) = delete;
+  StoppableVboard &operator=(const StoppableVboard &) = delete;
+
+  // Stops the board if it still runs.
+  ~StoppableVboard() {
+    if (pid_ > 0) stop();
+    if (out_) fclose(out_);
+  }
+
+  // Path of the board's pty.
+  const std::string &pty() const { return pty_; }
+
+  // Ends the board with SIGTERM and waits: its exit status, -1 if a signal killed it
+  // (the vboard exits 0 on SIGTERM, 2 when the AVR crashed).
+  int stop() {
+    if (pid_ <= 0) return status_;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return status_;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int status_ = -1;
+  FILE *out_ = nullptr;
+  std::string pty_;
+};
+
+// A ConfigBody for `motor`: A4988 at 16 microsteps, switches active low (the vboard's default),
+// the full period range, no onset ramp, 2 us pulses, and the given travel.
+inline sc::ConfigBody motor_config(uint8_t motor, uint32_t travel_steps) {
+  sc::ConfigBody c{};
+  c.motor = motor;
+  c.driver = sc::kDriverA4988;
+  c.microsteps = 16;
+  c.endstop_active_high = 0;
+  c.travel_steps = travel_steps;
+  c.min_period_q8 = sc::kPeriodQ8Min;
+  c.max_period_q8 = sc::kPeriodQ8Max;
+  c.start_period_q8 = 0;
+  c.accel_q8 = 0;
+  c.pulse_us = 2;
+  return c;
+}
+
+// A kMsgWatchdog payload: timeout in ms, 0 = off.
+inline std::vector<uint8_t> watchdog_payload(uint16_t ms) {
+  std::vector<uint8_t> p{sc::kMsgWatchdog, 0, 0};
+  sc::put_u16(&p[1], ms);
+  return p;
+}
+
+// A set-period payload for one motor (period 0 = silence).
+inline std::vector<uint8_t> tone_payload(uint8_t motor, uint32_t period_q8) {
+  return stepchoir::periods_payload({{motor, period_q8}});
+}
+
+// Writes several payloads as frames in one write, so they reach the board back to back.
+inline void send_back_to_back(stepchoir::Board &b, const std::vector<std::vector<uint8_t>> &payloads) {
+  std::vector<uint8_t> wire;
+  for (const auto &p : payloads) {
+    const auto f = stepchoir::frame(p);
+    wire.insert(wire.end(), f.begin(), f.end());
+  }
+  if (!b.link().write(wire.data(), wire.size())) throw std::runtime_error("write failed");
+}
+
+// Waits for the clock reply carrying `seq` (earlier clock replies are skipped); its ticks.
+inline uint32_t clock_reply(stepchoir::Board &b, uint8_t seq, int timeout_ms = 5000) {
+  for (;;) {
+    auto r = b.wait_reply(sc::kMsgClock, timeout_ms);
+    if (!r) throw std::runtime_error("no clock reply for seq " + std::to_string(seq));
+    if (r->size() >= 6 && (*r)[1] == seq) return sc::get_u32(&(*r)[2]);
+  }
+}
+
+// Polls the board clock (every 2 ms of wall time) until it reaches target_ticks; returns the
+// last clock read. The clock requests are frames, so they also keep the watchdog fed.
+inline uint32_t wait_board_time(stepchoir::Board &b, uint32_t target_ticks, int wall_limit_ms = 60000) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(wall_limit_ms);
+  for (uint8_t seq = 0x60;; ++seq) {
+    b.send({sc::kMsgClockReq, seq});
+    const uint32_t now = clock_reply(b, seq);
+    if (static_cast<int32_t>(now - target_ticks) >= 0) return now;
+    if (std::chrono::steady_clock::now() > give_up)
+      throw std::runtime_error("board time never reached " + std::to_string(target_ticks));
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+// Starts `motor` at period_q8 with an `at` frame lead_s ahead of the board clock (the motor
+// must be silent: its first step then falls exactly on the returned board time).
+inline uint32_t start_note_at(stepchoir::Board &b, uint8_t motor, uint32_t period_q8, uint32_t f_cpu_hz,
+                              double lead_s = 0.005) {
+  const uint32_t at = board_ticks(b, 0x5a) + static_cast<uint32_t>(lead_s * f_cpu_hz);
+  b.send(at_payload(at, {{motor, period_q8}}));
+  return at;
+}
+
+// Trace cycles minus board ticks, from a note started with start_note_at: its first step
+// rose on board time at_ticks. 0 when board ticks count CPU cycles from power-up.
+inline int64_t cycle_offset(const sc::trace::MotorTrace &m, uint32_t at_ticks) {
+  if (m.steps.empty()) throw std::runtime_error("cycle_offset: the note left no step in the trace");
+  return static_cast<int64_t>(m.steps.front().rise_cycle) - static_cast<int64_t>(at_ticks);
+}
+
+// Board ticks for a duration in seconds.
+inline uint32_t ticks_for(double seconds, uint32_t f_cpu_hz) { return static_cast<uint32_t>(seconds * f_cpu_hz); }
+
+// `n` bytes of line garbage from a fixed seed: the first half uniform random bytes (mostly
+// over-long frames), the second half random bytes with a 0x00 about every 16 bytes (many
+// short frames that reach the COBS, length and CRC checks).
+inline std::vector<uint8_t> garbage_bytes(size_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<uint8_t> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t byte = static_cast<uint8_t>(rng());
+    out[i] = (i >= n / 2 && rng() % 16 == 0) ? 0 : byte;
+  }
+  return out;
+}
+
+// Cycles of the switch presses (logical endstop changes to 1) of one motor.
+inline std::vector<uint64_t> press_cycles(const sc::trace::MotorTrace &m) {
+  std::vector<uint64_t> out;
+  for (const auto &e : m.endstop_changes)
+    if (e.value == 1) out.push_back(e.cycle);
+  return out;
+}
+
+// The first ENABLE change of a motor at or after `cycle` to `level`, or nullptr.
+inline const sc::trace::LevelChange *first_enable_change(const sc::trace::MotorTrace &m, uint64_t cycle,
+                                                          uint8_t level) {
+  for (const auto &e : m.enables)
+    if (e.cycle >= cycle && e.value == level) return &e;
+  return nullptr;
+}
+
+}  // namespace e2e
+
+#endif  // STEPCHOIR_TESTS_E2E_MORE_H

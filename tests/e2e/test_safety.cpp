@@ -1,0 +1,452 @@
+// test_safety.cpp: the real firmware on the virtual board keeps the motors safe: endstop
+// bounce-back (clean and chattering switches), soft limits, onset direction, watchdog,
+// stop-all, and garbage on the line (uno and mega).
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis.h"
+#include "e2e_more.h"
+#include "e2e_util.h"
+#include "trace.h"
+
+using namespace stepchoir;
+namespace tr = sc::trace;
+
+namespace {
+
+const uint16_t kDefaultWatchdogMs = 300;  // PROTOCOL.md: the watchdog's power-up timeout
+const double kIntervalTolerance = 0.001;  // step interval around a reversal: within 0.1 %
+
+// A virtual board (no pacing, traced), and a host session on it that has said hello.
+struct Rig {
+  std::string trace_path;
+  e2e::StoppableVboard vb;
+  Board b;
+  Caps caps;
+
+  // Starts `board` with the extra vboard options, tracing to <scratch>/<name>.csv.
+  Rig(const std::string &name, const std::string &board, const std::vector<std::string> &extra)
+      : trace_path(e2e::scratch(name + ".csv")),
+        vb(vboard_args(board, trace_path, extra)),
+        b(open_link(vb.pty())),
+        caps(b.hello()) {}
+
+  // The vboard command line: no pacing, a generous simulated-time cap, trace, quiet.
+  static std::vector<std::string> vboard_args(const std::string &board, const std::string &trace,
+                                              const std::vector<std::string> &extra) {
+    std::vector<std::string> a{"--board", board, "--no-pacing", "--seconds", "120", "--trace", trace, "--quiet"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  }
+
+  // Ticks for a duration in seconds on this board.
+  uint32_t ticks(double seconds) const { return e2e::ticks_for(seconds, caps.f_cpu_hz); }
+
+  // Stops the board, requires a clean exit (no AVR crash) and reads the trace.
+  tr::Trace finish() {
+    const int rc = vb.stop();
+    INFO("stepchoir-vboard exit status " << rc << " (2 = the AVR crashed)");
+    REQUIRE(rc == 0);
+    return tr::read_trace(trace_path);
+  }
+};
+
+// Presses (P) and reversal steps (R) of one motor in time order, e.g. "PRPRPR"; only presses
+// followed by at least one step count (the note may end right after a press).
+std::string press_reversal_sequence(const tr::MotorTrace &m, const std::vector<size_t> &reversals) {
+  std::vector<std::pair<uint64_t, char>> events;
+  for (uint64_t c : e2e::press_cycles(m))
+    if (!m.steps.empty() && c < m.steps.back().rise_cycle) events.push_back({c, 'P'});
+  for (size_t i : reversals) events.push_back({m.steps[i].rise_cycle, 'R'});
+  std::stable_sort(events.begin(), events.end(),
+                   [](const auto &a, const auto &b) { return a.first < b.first; });
+  std::string s;
+  for (const auto &e : events) s += e.second;
+  return s;
+}
+
+// Largest relative deviation from period_cycles of the step intervals within `span` steps
+// either side of each reversal.
+double worst_interval_deviation(const std::vector<tr::Step> &steps, const std::vector<size_t> &reversals,
+                                double period_cycles, size_t span = 3) {
+  double worst = 0;
+  for (size_t r : reversals) {
+    const size_t from = std::max<size_t>(1, r >= span ? r - span : 0);
+    const size_t to = std::min(steps.size() - 1, r + span);
+    for (size_t k = from; k <= to; ++k) {
+      const double interval = double(steps[k].rise_cycle - steps[k - 1].rise_cycle);
+      worst = std::max(worst, std::abs(interval - period_cycles) / period_cycles);
+    }
+  }
+  return worst;
+}
+
+// Largest relative deviation from period_cycles of any step interval of the note: timing
+// jitter everywhere, to tell apart from jitter at the reversals.
+double worst_interval_deviation_anywhere(const std::vector<tr::Step> &steps, double period_cycles) {
+  double worst = 0;
+  for (size_t k = 1; k < steps.size(); ++k)
+    worst = std::max(worst, std::abs(double(steps[k].rise_cycle - steps[k - 1].rise_cycle) - period_cycles) /
+                                period_cycles);
+  return worst;
+}
+
+// Reversals whose turning step (the step before the reversal) is not within `slack` steps of
+// either end of a rail of `rail` steps.
+size_t reversals_away_from_ends(const std::vector<tr::Step> &steps, const std::vector<size_t> &reversals,
+                                int64_t rail, int64_t slack) {
+  size_t away = 0;
+  for (size_t r : reversals) {
+    const int64_t p = steps[r - 1].position;
+    if (std::abs(p) > slack && std::abs(p - rail) > slack) ++away;
+  }
+  return away;
+}
+
+// Plays 2000 Hz on motor 0 for 2 s on a 400-step rail whose switches act before the firmware's
+// soft limits (firmware travel 800), and checks each press gives exactly one reversal, at the
+// end, in time, at the same frequency.
+void check_bounce_back(const std::string &board, uint32_t chatter_us) {
+  const int64_t kRail = 400;
+  std::vector<std::string> extra{"--travel-steps", std::to_string(kRail)};
+  if (chatter_us) extra.insert(extra.end(), {"--chatter-us", std::to_string(chatter_us), "--seed", "7"});
+  Rig r("safety-bounce-" + board + (chatter_us ? "-chatter" : ""), board, extra);
+  REQUIRE(!r.caps.endstops.empty());
+  REQUIRE(r.caps.endstops[0] != 0);  // motor 0 has a switch
+  r.b.send(e2e::watchdog_payload(0));
+  r.b.send(config_payload(e2e::motor_config(0, 2 * kRail)));
+  const uint32_t period_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);
+  const uint32_t t0 = e2e::board_ticks(r.b);
+  r.b.send(e2e::tone_payload(0, period_q8));
+  e2e::wait_board_time(r.b, t0 + r.ticks(2.0));
+  r.b.send(e2e::tone_payload(0, 0));
+  const auto st = r.b.status();
+  REQUIRE(st);
+  const tr::Trace t = r.finish();
+
+  const tr::MotorTrace &m = t.motor[0];
+  const std::vector<size_t> rev = tr::reversal_indices(m.steps);
+  const std::string seq = press_reversal_sequence(m, rev);
+  const size_t presses = size_t(std::count(seq.begin(), seq.end(), 'P'));
+  std::string alternating;
+  for (size_t i = 0; i < presses; ++i) alternating += "PR";
+  const double deviation = worst_interval_deviation(m.steps, rev, period_q8 / 256.0);
+  const double deviation_anywhere = worst_interval_deviation_anywhere(m.steps, period_q8 / 256.0);
+  const int64_t overshoot = tr::max_overshoot_steps(m.steps, kRail);
+  std::printf("%s bounce-back (chatter %u us): %zu steps, %zu presses, %zu reversals, %zu bounce toggles, "
+              "overshoot %lld, worst interval deviation %.4f %% at reversals, %.4f %% anywhere, status reversals %u\n",
+              board.c_str(), chatter_us, m.steps.size(), presses, rev.size(), m.bounces.size(),
+              (long long)overshoot, deviation * 100, deviation_anywhere * 100, st->head.reversals);
+  INFO(board << ", chatter " << chatter_us << " us: presses/reversals in time order " << seq);
+  REQUIRE(m.steps.size() > 3000);
+  REQUIRE(presses >= 8);
+  CHECK(rev.size() == presses);
+  CHECK(seq == alternating);  // each press is followed by exactly one reversal before the next press
+  CHECK(st->head.reversals == rev.size());
+  CHECK(overshoot <= 3);
+  CHECK(reversals_away_from_ends(m.steps, rev, kRail, 3) == 0);
+  INFO("worst step interval deviation around a reversal: " << deviation * 100 << " %");
+  CHECK(deviation <= kIntervalTolerance);
+  if (chatter_us) CHECK(m.bounces.size() >= presses);  // the contacts really chattered
+}
+
+// Plays a note with the watchdog at timeout_ms, then sends nothing: the last frame is a clock
+// request, whose ticks are the board time the silence began. Checks the stop, ENABLE, status.
+void check_watchdog(uint16_t timeout_ms) {
+  Rig r("safety-watchdog-" + std::to_string(timeout_ms), "uno", {});
+  if (timeout_ms != kDefaultWatchdogMs) r.b.send(e2e::watchdog_payload(timeout_ms));
+  const uint32_t period_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);
+  const uint32_t at = e2e::start_note_at(r.b, 0, period_q8, r.caps.f_cpu_hz);
+  e2e::wait_board_time(r.b, at + r.ticks(0.002));
+  const uint32_t t_last = e2e::board_ticks(r.b, 0x21);  // the last frame for a while
+  // no pacing: the board runs faster than wall time, so twice the timeout is plenty
+  std::this_thread::sleep_for(std::chrono::milliseconds(2 * (timeout_ms + 50)));
+  e2e::send_back_to_back(r.b, {{sc::kMsgStatusReq}, {sc::kMsgClockReq, 0x22}});
+  const auto reply = r.b.wait_reply(sc::kMsgStatus, 5000);
+  REQUIRE(reply);
+  const Status st = parse_status(reply->data(), reply->size());
+  const uint32_t t_after = e2e::clock_reply(r.b, 0x22);
+  const tr::Trace t = r.finish();
+  const double ticks_per_ms = r.caps.f_cpu_hz / 1000.0;
+  INFO("the host was silent for " << (t_after - t_last) / ticks_per_ms << " ms of board time");
+  REQUIRE(t_after - t_last > r.ticks((timeout_ms + 20) / 1000.0));  // precondition: silence past the timeout
+
+  const tr::MotorTrace &m = t.motor[0];
+  REQUIRE(m.steps.size() > 100);
+  const int64_t offset = e2e::cycle_offset(m, at);  // board ticks -> trace cycles
+  const double silence_from = double(t_last) + double(offset);
+  const double last_step_ms = (double(m.steps.back().rise_cycle) - silence_from) / ticks_per_ms;
+  const tr::LevelChange *enabled = nullptr;
+  for (const auto &e : m.enables)
+    if (e.cycle < m.steps.front().rise_cycle && e.value == 0) enabled = &e;
+  const tr::LevelChange *disabled = e2e::first_enable_change(m, uint64_t(silence_from), 1);
+  const double disabled_ms = disabled ? (double(disabled->cycle) - silence_from) / ticks_per_ms : -1;
+  std::printf("watchdog %u ms: last step %.3f ms, ENABLE high %.3f ms after the last frame (board ticks + %lld "
+              "= trace cycles); status flags 0x%02x, last error %u\n",
+              timeout_ms, last_step_ms, disabled_ms, (long long)offset, st.head.flags, st.head.last_error);
+  INFO("watchdog " << timeout_ms << " ms: last step " << last_step_ms << " ms after the last frame, ENABLE high after "
+                   << disabled_ms << " ms");
+  CHECK(enabled);                                // the note had the drivers on (ENABLE low)
+  CHECK(last_step_ms >= timeout_ms - 1.0);       // the note kept playing until the timeout
+  CHECK(last_step_ms <= timeout_ms + 10.0);      // and stopped within 10 ms of it
+  REQUIRE(disabled);                             // ENABLE went high: drivers off
+  CHECK(disabled_ms >= timeout_ms - 1.0);
+  CHECK(disabled_ms <= timeout_ms + 10.0);
+  CHECK(m.steps.back().rise_cycle <= disabled->cycle);  // no step after the drivers were disabled
+  // the first frame after the trip is the status request: it must report the trip
+  CHECK((st.head.flags & sc::kStatusWatchdogTripped) != 0);
+  CHECK((st.head.flags & sc::kStatusDriversEnabled) == 0);
+  CHECK(st.head.last_error == sc::kErrWatchdog);
+  REQUIRE(st.motors.size() == r.caps.motor_count);
+  CHECK((st.motors[0].flags & sc::kMotorSounding) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("safety: uno motor 0 bounces back off its switch, one reversal per press") {
+  check_bounce_back("uno", 0);
+}
+
+TEST_CASE("safety: mega motor 0 bounces back off its min and max switches, one reversal per press") {
+  check_bounce_back("mega", 0);
+}
+
+TEST_CASE("safety: uno motor 0 with 3 ms switch chatter: still exactly one reversal per press") {
+  check_bounce_back("uno", 3000);
+}
+
+TEST_CASE("safety: mega motor 0 with 3 ms switch chatter: still exactly one reversal per press") {
+  check_bounce_back("mega", 3000);
+}
+
+TEST_CASE("safety: uno motor A (no switch) reverses at its soft limits and never leaves the rail") {
+  const int64_t kRail = 300;
+  Rig r("safety-soft-uno", "uno", {"--travel-steps", std::to_string(kRail)});
+  REQUIRE(r.caps.endstops.size() == 4);
+  REQUIRE(r.caps.endstops[3] == 0);  // motor A: no switch
+  r.b.send(e2e::watchdog_payload(0));
+  r.b.send(config_payload(e2e::motor_config(3, uint32_t(kRail))));
+  const uint32_t period_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);
+  const uint32_t t0 = e2e::board_ticks(r.b);
+  r.b.send(e2e::tone_payload(3, period_q8));
+  e2e::wait_board_time(r.b, t0 + r.ticks(1.0));
+  r.b.send(e2e::tone_payload(3, 0));
+  const auto st = r.b.status();
+  REQUIRE(st);
+  const tr::Trace t = r.finish();
+
+  const tr::MotorTrace &m = t.motor[3];
+  const std::vector<size_t> rev = tr::reversal_indices(m.steps);
+  const int64_t overshoot = tr::max_overshoot_steps(m.steps, kRail);
+  const double deviation = worst_interval_deviation(m.steps, rev, period_q8 / 256.0);
+  const double deviation_anywhere = worst_interval_deviation_anywhere(m.steps, period_q8 / 256.0);
+  std::printf("uno soft limits: %zu steps, %zu reversals, overshoot %lld, worst interval deviation %.4f %% at "
+              "reversals, %.4f %% anywhere\n",
+              m.steps.size(), rev.size(), (long long)overshoot, deviation * 100, deviation_anywhere * 100);
+  REQUIRE(m.steps.size() > 1500);
+  CHECK(rev.size() >= 5);
+  CHECK(overshoot <= 1);
+  CHECK(reversals_away_from_ends(m.steps, rev, kRail, 1) == 0);  // turns only at the ends
+  CHECK(m.endstop_changes.empty());
+  CHECK(st->head.reversals == rev.size());
+  INFO("worst step interval deviation around a reversal: " << deviation * 100 << " %");
+  CHECK(deviation <= kIntervalTolerance);
+}
+
+TEST_CASE("safety: uno note onset after a switch reversal heads away from the end it hit") {
+  // 600-step rail, carriage at 100; the firmware believes mid travel (1600 of 3200) until a
+  // switch recalibrates it, and either way its first reversal is at a switch.
+  const int64_t kRail = 600;
+  Rig r("safety-onset-uno", "uno", {"--travel-steps", std::to_string(kRail), "--start-position", "100"});
+  r.b.send(e2e::watchdog_payload(0));
+  const uint32_t period_q8 = hz_to_period_q8(1000.0, r.caps.f_cpu_hz);
+  r.b.send(e2e::tone_payload(0, period_q8));
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (;;) {
+    const auto st = r.b.status();
+    REQUIRE(st);
+    if (st->head.reversals >= 1) break;
+    REQUIRE(std::chrono::steady_clock::now() < give_up);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  r.b.send(e2e::tone_payload(0, 0));
+  const auto between = r.b.status();
+  REQUIRE(between);
+  CHECK((between->motors[0].flags & sc::kMotorSounding) == 0);
+  r.b.send(e2e::tone_payload(0, period_q8));
+  const uint32_t t2 = e2e::board_ticks(r.b, 0x42);
+  e2e::wait_board_time(r.b, t2 + r.ticks(0.05));
+  r.b.send(e2e::tone_payload(0, 0));
+  const tr::Trace t = r.finish();
+
+  const tr::MotorTrace &m = t.motor[0];
+  REQUIRE(!m.endstop_changes.empty());
+  const tr::LevelChange &press = m.endstop_changes.front();
+  REQUIRE(press.value == 1);
+  const bool hit_min = press.position <= kRail / 2;
+  // the second note starts after the one long gap between steps (the silence)
+  size_t second = 0, gaps = 0;
+  for (size_t k = 1; k < m.steps.size(); ++k)
+    if (m.steps[k].rise_cycle - m.steps[k - 1].rise_cycle > 3 * period_q8 / 256) second = k, ++gaps;
+  REQUIRE(gaps == 1);
+  REQUIRE(press.cycle < m.steps[second - 1].rise_cycle);  // the switch was hit during the first note
+  REQUIRE(m.steps.size() - second >= 20);
+  const int64_t stop_position = m.steps[second - 1].position;
+  const int expected_step = hit_min ? +1 : -1;  // away from the end it hit
+  size_t wrong = 0;
+  for (size_t k = second; k < second + 20; ++k)
+    if (m.steps[k].position - (k == second ? stop_position : m.steps[k - 1].position) != expected_step) ++wrong;
+  std::printf("uno onset: switch hit at %lld, stopped at %lld, new note's first step to %lld\n",
+              (long long)press.position, (long long)stop_position, (long long)m.steps[second].position);
+  INFO("switch pressed at position " << press.position << ", carriage stopped at " << stop_position
+                                     << ", the new note's first step went to " << m.steps[second].position);
+  REQUIRE(std::abs(stop_position - press.position) < kRail / 2);  // stopped near the end it hit
+  CHECK(m.steps[second].position - stop_position == expected_step);
+  CHECK(wrong == 0);  // its first 20 steps all head away from that end
+}
+
+TEST_CASE("safety: uno board clock: ticks are trace cycles (an `at` note's first step falls on its tick)") {
+  // The safety tests below map board ticks to trace cycles through such a note; this one
+  // checks the mapping is the identity, as board ticks count CPU cycles from power-up.
+  Rig r("safety-clock-uno", "uno", {});
+  r.b.send(e2e::watchdog_payload(0));
+  const uint32_t period_q8 = hz_to_period_q8(1000.0, r.caps.f_cpu_hz);
+  const uint32_t at = e2e::start_note_at(r.b, 0, period_q8, r.caps.f_cpu_hz, 0.01);
+  e2e::wait_board_time(r.b, at + r.ticks(0.02));
+  r.b.send(e2e::tone_payload(0, 0));
+  const tr::Trace t = r.finish();
+  REQUIRE(!t.motor[0].steps.empty());
+  const int64_t offset = e2e::cycle_offset(t.motor[0], at);
+  std::printf("uno clock: `at` tick %u, first step at trace cycle %llu: offset %lld cycles (%.3f ms)\n", at,
+              (unsigned long long)t.motor[0].steps.front().rise_cycle, (long long)offset,
+              offset / (r.caps.f_cpu_hz / 1000.0));
+  INFO("trace cycles - board ticks = " << offset);
+  CHECK(std::abs(offset) <= 16);  // within 1 us
+}
+
+TEST_CASE("safety: uno watchdog (300 ms default) stops the note and disables the drivers") {
+  check_watchdog(kDefaultWatchdogMs);
+}
+
+TEST_CASE("safety: uno watchdog set to 100 ms stops the note within 100 ms") { check_watchdog(100); }
+
+TEST_CASE("safety: uno stop-all silences a 10 kHz note within 50 us and disables the drivers") {
+  Rig r("safety-stopall-uno", "uno", {});
+  r.b.send(e2e::watchdog_payload(0));
+  const uint32_t period_q8 = hz_to_period_q8(10000.0, r.caps.f_cpu_hz);
+  const uint32_t at = e2e::start_note_at(r.b, 0, period_q8, r.caps.f_cpu_hz);
+  e2e::wait_board_time(r.b, at + r.ticks(0.02));
+  // clock request, stop-all, clock request: back to back on the wire
+  e2e::send_back_to_back(r.b, {{sc::kMsgClockReq, 0x31}, {sc::kMsgStopAll}, {sc::kMsgClockReq, 0x32}});
+  const uint32_t t_a = e2e::clock_reply(r.b, 0x31);
+  const uint32_t t_b = e2e::clock_reply(r.b, 0x32);
+  const auto st = r.b.status();
+  REQUIRE(st);
+  const tr::Trace t = r.finish();
+
+  const double ticks_per_us = r.caps.f_cpu_hz / 1e6;
+  const double byte_ticks = 10.0 * r.caps.f_cpu_hz / sc::kBaud;  // one 8N1 byte on the wire
+  INFO("clock requests decoded " << (t_b - t_a) / ticks_per_us << " us apart");
+  REQUIRE(t_b - t_a < r.ticks(300e-6));  // the three frames went back to back
+
+  const tr::MotorTrace &m = t.motor[0];
+  REQUIRE(m.steps.size() > 100);
+  const int64_t offset = e2e::cycle_offset(m, at);  // board ticks -> trace cycles
+  // the stop-all frame is complete on the wire this long after the clock request before it
+  const double t_stop = double(t_a) + double(offset) + byte_ticks * double(frame({sc::kMsgStopAll}).size());
+  const double last_us = (double(m.steps.back().rise_cycle) - t_stop) / ticks_per_us;
+  const tr::LevelChange *disabled = e2e::first_enable_change(m, uint64_t(t_a + offset), 1);
+  const double disabled_us = disabled ? (double(disabled->cycle) - t_stop) / ticks_per_us : 1e9;
+  std::printf("uno stop-all: last step %.2f us, ENABLE high %.2f us after the stop-all frame ended (board ticks + "
+              "%lld = trace cycles)\n",
+              last_us, disabled_us, (long long)offset);
+  INFO("last step " << last_us << " us, ENABLE high " << disabled_us << " us after the stop-all frame ended");
+  CHECK(last_us >= -2.0 * period_q8 / 256.0 / ticks_per_us);  // still playing when the stop came
+  CHECK(last_us <= 50.0);
+  REQUIRE(disabled);
+  CHECK(disabled_us <= 50.0);
+  CHECK(m.steps.back().rise_cycle <= disabled->cycle);
+  CHECK((st->head.flags & sc::kStatusDriversEnabled) == 0);
+  REQUIRE(st->motors.size() == r.caps.motor_count);
+  CHECK((st->motors[0].flags & sc::kMotorSounding) == 0);
+}
+
+TEST_CASE("safety: uno playing the shortest period (40 kHz) still answers and obeys stop-all") {
+  Rig r("safety-stopall-40k-uno", "uno", {});
+  r.b.send(e2e::watchdog_payload(0));
+  const uint32_t period_q8 = sc::kPeriodQ8Min;  // 25 us, the shortest period any message may carry
+  const uint32_t at = e2e::start_note_at(r.b, 0, period_q8, r.caps.f_cpu_hz);
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));  // no pacing: well past `at`
+  r.b.send({sc::kMsgClockReq, 0x71});
+  const auto clock = r.b.wait_reply(sc::kMsgClock, 2000);
+  r.b.send({sc::kMsgStopAll});
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const auto st = r.b.status(2000);
+  const tr::Trace t = r.finish();
+
+  const tr::MotorTrace &m = t.motor[0];
+  REQUIRE(m.steps.size() > 100);
+  const int64_t offset = e2e::cycle_offset(m, at);
+  const double quiet_ms = double(t.end_cycle - m.steps.back().rise_cycle) / (r.caps.f_cpu_hz / 1000.0);
+  std::printf("uno 40 kHz: %zu steps; clock reply %s, status reply %s; motor quiet for the last %.1f ms of the run "
+              "(board ticks + %lld = trace cycles)\n",
+              m.steps.size(), clock ? "yes" : "NO", st ? "yes" : "NO", quiet_ms, (long long)offset);
+  CHECK(clock);            // the board answers while a motor plays at 40 kHz
+  CHECK(st);
+  CHECK(quiet_ms > 50.0);  // stop-all was obeyed: the motor did not play to the end of the run
+}
+
+TEST_CASE("safety: uno survives 300 kB of garbage at full speed; hello, status and a tone still right") {
+  Rig r("safety-garbage-uno", "uno", {});
+  const Caps before = r.caps;
+  const std::vector<uint8_t> junk = e2e::garbage_bytes(300000, 20240607);
+  const uint32_t t_junk = e2e::board_ticks(r.b, 0x51);
+  for (size_t at = 0; at < junk.size(); at += 4096)
+    REQUIRE(r.b.link().write(junk.data() + at, std::min<size_t>(4096, junk.size() - at)));
+  const Caps after = r.b.hello(30000);  // resync, then hello: answered once the garbage is through
+  const uint32_t t_hello = e2e::board_ticks(r.b, 0x52);
+  const auto st = r.b.status();
+  REQUIRE(st);
+  std::printf("uno garbage: %zu bytes took %.3f s of board time; frames ok %u bad %u, uart overruns %u, "
+              "last error %u\n",
+              junk.size(), double(t_hello - t_junk) / r.caps.f_cpu_hz, st->head.frames_ok, st->head.frames_bad,
+              st->head.uart_overruns, st->head.last_error);
+  // the board really took every byte in: 300 kB at 1 Mbaud are 3 s on the wire
+  CHECK(double(t_hello - t_junk) >= 0.95 * junk.size() * 10.0 / sc::kBaud * r.caps.f_cpu_hz);
+  CHECK(after.protocol_version == sc::kProtocolVersion);
+  CHECK(after.protocol_version == before.protocol_version);
+  CHECK(after.motor_count == 4);
+  CHECK(after.motor_count == before.motor_count);
+  CHECK(after.f_cpu_hz == before.f_cpu_hz);
+  CHECK(after.queue_size == before.queue_size);
+  CHECK(after.endstops == std::vector<uint8_t>{7, 7, 7, 0});
+  CHECK(after.board_name == "uno_cnc_shield_v3");
+  CHECK(st->head.frames_bad > 0);
+
+  const uint32_t period_q8 = hz_to_period_q8(440.0, r.caps.f_cpu_hz);
+  const uint32_t t_tone = e2e::board_ticks(r.b, 0x53);
+  r.b.send(e2e::tone_payload(0, period_q8));
+  e2e::wait_board_time(r.b, t_tone + r.ticks(0.6));  // the clock requests keep the watchdog fed
+  r.b.send(e2e::tone_payload(0, 0));
+  const tr::Trace t = r.finish();
+
+  size_t early = 0;  // steps before the tone: the garbage must never have moved a motor
+  for (const auto &m : t.motor)
+    for (const auto &s : m.steps)
+      if (s.rise_cycle < t_tone) ++early;
+  CHECK(early == 0);
+  const auto edges = tr::rise_cycles_in_window(t.motor[0].steps, t_tone + r.ticks(0.02), t_tone + r.ticks(0.6));
+  REQUIRE(edges.size() >= 200);
+  const tr::PitchFit f = tr::fit_edges(edges, period_q8 / 256.0, t.f_cpu_hz);
+  std::printf("uno tone after garbage: %zu edges, %.5f cents, p99 %.3f us\n", edges.size(), f.cents_error,
+              f.residual_p99_us);
+  INFO("tone after the garbage: " << f.cents_error << " cents, p99 residual " << f.residual_p99_us << " us");
+  CHECK(std::abs(f.cents_error) < 0.05);
+}
