@@ -24,6 +24,7 @@ constexpr double kInt16FullScale = 32767.0;
 constexpr double kDbPerAmplitudeDecade = 20.0;
 constexpr double kResonatorSpread = 1.25;      // each motor rings this much higher than the last
 constexpr double kMaxResonatorFraction = 0.4;  // of the sample rate: stay well below Nyquist
+constexpr double kMaxAudioSeconds = 3600;     // longer traces would need gigabytes of samples
 constexpr uint16_t kWavFormatPcm = 1;
 constexpr uint16_t kWavChannels = 1;
 constexpr uint16_t kWavBitsPerSample = 16;
@@ -51,40 +52,44 @@ std::vector<int16_t> render_audio(const Trace& trace, const AudioOptions& option
   if (!(options.resonator_decay_s > 0)) throw std::invalid_argument("render_audio: decay must be > 0");
   const size_t n = audio_length_samples(trace, options.sample_rate_hz);
   const double rate_hz = double(options.sample_rate_hz);
-  std::vector<double> mix(n, 0.0);
-  std::vector<float> excitation(n, 0.0f);
+  if (double(n) > kMaxAudioSeconds * rate_hz)
+    throw std::runtime_error("trace lasts " + std::to_string(trace.real_seconds(trace.end_cycle)) +
+                             " s; audio is limited to " + std::to_string(int(kMaxAudioSeconds)) + " s");
+  std::vector<float> mix(n, 0.0f);
   for (int m = 0; m < int(trace.motor.size()); ++m) {
     const std::vector<Step>& steps = trace.motor[size_t(m)].steps;
     if (steps.empty()) continue;
-    std::fill(excitation.begin(), excitation.end(), 0.0f);
-    for (const Step& s : steps) {
-      // split the impulse over two samples: sub-sample timing keeps the pitch clean
-      double at_samples = trace.real_seconds(s.rise_cycle) * rate_hz;
-      if (!(at_samples < double(n))) continue;
-      size_t i = size_t(at_samples);
-      float frac = float(at_samples - double(i));
-      excitation[i] += 1.0f - frac;
-      if (i + 1 < n) excitation[i + 1] += frac;
-    }
     // two-pole resonator: impulse response r^k sin((k+1) w) / sin w, scaled to peak ~1
     const double w = 2.0 * kPi * resonator_hz(options, m) / rate_hz;
     const double r = std::exp(-1.0 / (options.resonator_decay_s * rate_hz));
     const double a1 = 2.0 * r * std::cos(w), a2 = -r * r, gain = std::sin(w);
     double y1 = 0, y2 = 0;
+    double carry = 0;  // the part of the last impulse that falls on the next sample
+    size_t next_step = 0;
     for (size_t k = 0; k < n; ++k) {
-      double y = gain * excitation[k] + a1 * y1 + a2 * y2;
+      double x = carry;
+      carry = 0;
+      // split each impulse over two samples: sub-sample timing keeps the pitch clean
+      for (; next_step < steps.size(); ++next_step) {
+        double at_samples = trace.real_seconds(steps[next_step].rise_cycle) * rate_hz;
+        if (at_samples >= double(k + 1)) break;
+        double frac = std::max(0.0, at_samples - double(k));
+        x += 1.0 - frac;
+        carry += frac;
+      }
+      double y = gain * x + a1 * y1 + a2 * y2;
       y2 = y1;
       y1 = y;
-      mix[k] += y;
+      mix[k] += float(y);
     }
   }
   double peak = 0;
-  for (double v : mix) peak = std::max(peak, std::fabs(v));
+  for (float v : mix) peak = std::max(peak, double(std::fabs(v)));
   std::vector<int16_t> out(n, 0);
   if (peak <= 0) return out;
   const double scale = kInt16FullScale * std::pow(10.0, options.peak_dbfs / kDbPerAmplitudeDecade) / peak;
   for (size_t k = 0; k < n; ++k) {
-    double v = std::round(mix[k] * scale);
+    double v = std::round(double(mix[k]) * scale);
     out[k] = int16_t(std::max(-kInt16FullScale, std::min(kInt16FullScale, v)));
   }
   return out;
@@ -248,10 +253,13 @@ constexpr double kBarFillOfRow = 0.7;    // note bar height as a fraction of a s
 constexpr int kMinBarHeightPx = 3;
 constexpr int kTickOverhangPx = 3;       // reversal tick sticks out this far above/below the bar
 constexpr int kMinOutlinedBarPx = 5;    // thinner bars get no outline
-constexpr double kInsetOfBar = 0.2;      // a unison bar is this much (of the bar) smaller each side
+constexpr double kInsetOfBar = 0.3;      // a unison bar is this much (of the bar) smaller each side
 constexpr int kMinInsetPx = 1;
 constexpr double kMinRowForAllLabelsPx = 9;  // label D, E, F, ... too when rows are this tall
 constexpr int kLegendSwatchPx = 9;
+constexpr int kLegendSwatchGapPx = 4;   // between a swatch and its label
+constexpr int kLabelGapPx = 6;          // between the plot frame and axis labels
+constexpr int kMinOutlinedBarWidthPx = 3;
 constexpr int kLegendGapPx = 14;
 constexpr double kOutlineShade = 0.6;    // bar outline = motor colour times this
 // Time grid steps to choose from, in seconds.
@@ -370,7 +378,7 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
   Canvas canvas(width_px, height_px, kPageRgb);
   const int plot_x0 = kMarginLeftPx, plot_x1 = width_px - kMarginRightPx;
   const int plot_y0 = kMarginTopPx, plot_y1 = height_px - kMarginBottomPx;
-  const double plot_w = plot_x1 - plot_x0, plot_h = plot_y1 - plot_y0;
+  const double plot_w_px = plot_x1 - plot_x0, plot_h_px = plot_y1 - plot_y0;
 
   // notes of every motor, and the ranges they span
   std::vector<std::vector<NoteSegment>> notes(trace.motor.size());
@@ -394,11 +402,11 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
     }
   }
   const int rows = hi - lo + 1;
-  const double row_h = plot_h / rows;
+  const double row_h_px = plot_h_px / rows;
   if (!(end_s > 0)) end_s = 1;
-  const double px_per_s = plot_w / end_s;
+  const double px_per_s = plot_w_px / end_s;
   // y of the centre of a (fractional) MIDI pitch.
-  auto y_of = [&](double midi) { return plot_y1 - (midi - lo + 0.5) * row_h; };
+  auto y_of = [&](double midi) { return plot_y1 - (midi - lo + 0.5) * row_h_px; };
   // x of a real time in seconds.
   auto x_of = [&](double s) { return plot_x0 + s * px_per_s; };
 
@@ -415,19 +423,20 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
       break;
     }
   const double grid_step_s = px_per_s >= kMinGridSpacingPx ? 1.0 : label_step_s;
+  const long label_every = std::max(1L, std::lround(label_step_s / grid_step_s));
   for (long k = 0; k * grid_step_s <= end_s; ++k) {
     double t = k * grid_step_s;
     int x = int(std::lround(x_of(t)));
-    bool labelled = std::fmod(t + 1e-9, label_step_s) < 1e-6;
+    bool labelled = k % label_every == 0;
     canvas.vline(x, plot_y0, plot_y1, labelled ? kLabelLineRgb : kSecondLineRgb);
     if (labelled) {
       std::string label = fixed(t, 0);
-      canvas.text(x - Canvas::text_width_px(label) / 2, plot_y1 + 6, label, kTextRgb);
+      canvas.text(x - Canvas::text_width_px(label) / 2, plot_y1 + kLabelGapPx, label, kTextRgb);
     }
   }
-  canvas.text(2, plot_y1 + 6, "SEC", kTextRgb);
+  canvas.text(2, plot_y1 + kLabelGapPx, "SEC", kTextRgb);
   // a line under every C; every C labelled, the other white keys too when the rows are tall enough
-  const bool label_white_keys = row_h >= kMinRowForAllLabelsPx;
+  const bool label_white_keys = row_h_px >= kMinRowForAllLabelsPx;
   for (int midi = lo; midi <= hi; ++midi) {
     const int pitch_class = midi - floor_div(midi, kSemitonesPerOctaveInt) * kSemitonesPerOctaveInt;
     const bool is_c = pitch_class == 0;
@@ -435,15 +444,15 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
     if (!is_c && (is_black_key(midi) || !label_white_keys)) continue;
     std::string name = std::string(1, kPitchClassLetters[pitch_class]) +
                        std::to_string(floor_div(midi, kSemitonesPerOctaveInt) - kMidiOctaveOffset);
-    canvas.text(plot_x0 - 6 - Canvas::text_width_px(name), int(std::lround(y_of(midi))) - kGlyphHeightPx / 2,
+    canvas.text(plot_x0 - kLabelGapPx - Canvas::text_width_px(name), int(std::lround(y_of(midi))) - kGlyphHeightPx / 2,
                 name, is_c ? kTextRgb : kFaintTextRgb);
   }
 
   // note bars, then reversal ticks on top. Where a bar doubles an earlier motor's note (same
   // semitone at the same time) the earlier bar stays and this one is an inset stripe inside it,
   // so a unison shows both colours.
-  const int bar_h = std::max(kMinBarHeightPx, int(std::lround(row_h * kBarFillOfRow)));
-  const int inset_px = std::max(kMinInsetPx, int(std::lround(bar_h * kInsetOfBar)));
+  const int bar_h_px = std::max(kMinBarHeightPx, int(std::lround(row_h_px * kBarFillOfRow)));
+  const int inset_px = std::max(kMinInsetPx, int(std::lround(bar_h_px * kInsetOfBar)));
   std::vector<std::pair<int, int>> unison_px;  // [x0, x1) columns shared with earlier motors
   for (size_t m = 0; m < notes.size(); ++m) {
     const Rgb fill = motor_rgb(int(m)), edge = shade(fill, kOutlineShade);
@@ -457,11 +466,11 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
       const int x0 = int(std::lround(x_of(trace.real_seconds(n.start_cycle))));
       const int x1 = std::max(x0 + 1, int(std::lround(x_of(trace.real_seconds(n.end_cycle)))));
       const int yc = int(std::lround(y_of(n.midi_note)));
-      const bool outlined = bar_h >= kMinOutlinedBarPx && x1 - x0 >= 3;
+      const bool outlined = bar_h_px >= kMinOutlinedBarPx && x1 - x0 >= kMinOutlinedBarWidthPx;
       for (int x = x0; x < x1; ++x) {
         int depth = 0;
         for (const auto& span : unison_px) depth += (x >= span.first && x < span.second) ? 1 : 0;
-        const int h = std::max(1, bar_h - 2 * depth * inset_px);
+        const int h = std::max(1, bar_h_px - 2 * depth * inset_px);
         const int y0 = yc - h / 2;
         canvas.vline(x, y0, y0 + h, fill);
         if (!outlined || h < kMinOutlinedBarPx) continue;
@@ -480,7 +489,7 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
                                  [](size_t idx, const NoteSegment& n) { return idx < n.first_step; });
       if (it != notes[m].begin() && std::prev(it)->last_step >= i) {
         int yc = int(std::lround(y_of(std::prev(it)->midi_note)));
-        canvas.vline(x, yc - bar_h / 2 - kTickOverhangPx, yc - bar_h / 2 + bar_h + kTickOverhangPx, kReversalRgb);
+        canvas.vline(x, yc - bar_h_px / 2 - kTickOverhangPx, yc - bar_h_px / 2 + bar_h_px + kTickOverhangPx, kReversalRgb);
       } else {  // reversal outside any note: tick on the time axis in the motor's colour
         canvas.vline(x, plot_y1 - 2 * kTickOverhangPx, plot_y1, motor_rgb(int(m)));
       }
@@ -499,7 +508,7 @@ Image render_piano_roll(const Trace& trace, const RollOptions& options) {
     std::string label = "M" + std::to_string(m) + " " + std::to_string(notes[size_t(m)].size()) + " NOTES";
     x -= Canvas::text_width_px(label);
     canvas.text(x, kTitleTopPx, label, kTextRgb);
-    x -= kLegendSwatchPx + 4;
+    x -= kLegendSwatchPx + kLegendSwatchGapPx;
     canvas.fill(x, kTitleTopPx - 1, x + kLegendSwatchPx, kTitleTopPx - 1 + kLegendSwatchPx, motor_rgb(m));
     x -= kLegendGapPx;
   }

@@ -34,12 +34,13 @@ void print_summary(const sc::trace::Trace& trace) {
   for (size_t m = 0; m < trace.motor.size(); ++m) {
     const std::vector<Step>& steps = trace.motor[m].steps;
     auto width_cycles = min_pulse_width_cycles(steps);
+    char width_us[32] = "-";
+    if (width_cycles)
+      std::snprintf(width_us, sizeof width_us, "%.3f", *width_cycles * kMicrosPerSecond / trace.f_cpu_hz);
     std::printf("motor %zu: steps=%zu notes=%zu reversals=%zu overshoot_steps=%lld min_width_us=%s\n", m,
                 steps.size(), segment_notes(steps, trace.f_cpu_hz, segment_options).size(),
                 reversal_count(steps, gap_cycles),
-                static_cast<long long>(max_overshoot_steps(steps, trace.travel_steps)),
-                width_cycles ? std::to_string(*width_cycles * kMicrosPerSecond / trace.f_cpu_hz).c_str()
-                             : "-");
+                static_cast<long long>(max_overshoot_steps(steps, trace.travel_steps)), width_us);
   }
 }
 

@@ -45,17 +45,27 @@ class AvrAdapter : public SwitchPinDriver {
   uint64_t cycle() const;
   // SREG.I now.
   bool interrupts_enabled() const;
-  // Runs until cycle >= end_cycle, or the core stops.
+  // Makes a sleeping core stop at end_cycle instead of jumping past it (one cycle timer; a timer
+  // per chunk would perturb simavr's wake-up timing, which depends on where timers fall).
+  void set_end_cycle(uint64_t end_cycle);
+  // Runs until cycle >= end_cycle, or the core stops. A sleeping core jumps to its next timer,
+  // so it may pass end_cycle (except the one given to set_end_cycle).
   CoreState run_until(uint64_t end_cycle);
   // Starts feeding received host bytes to UART0 (call after PtyLink::poll_rx()).
   void kick_rx();
-  // Re-writes the switch inputs into the PIN registers (cheap; repairs them after an MCU reset).
-  void reassert_switch_pins();
+  // Between chunks: re-writes the switch levels into the PIN registers and re-arms our cycle
+  // timers if an MCU reset (watchdog) cleared them. Cheap.
+  void maintain();
 
   // Bytes delivered to the AVR's receiver.
   uint64_t uart_in_bytes() const { return uart_in_bytes_; }
   // Host bytes lost because the AVR's receiver was disabled.
   uint64_t uart_in_lost() const { return uart_in_lost_; }
+  // Times simavr's receive FIFO filled up (XOFF) and host bytes had to wait.
+  uint64_t uart_xoff_count() const { return uart_xoff_count_; }
+  // Host bytes that arrived while 3 earlier ones were still unread: a real ATmega (2-byte receive
+  // buffer + shift register, no flow control from the USB bridge) would have lost one (DOR).
+  uint64_t uart_would_overrun() const { return uart_would_overrun_; }
   // Bytes the AVR transmitted.
   uint64_t uart_out_bytes() const { return uart_out_bytes_; }
 
@@ -85,8 +95,9 @@ class AvrAdapter : public SwitchPinDriver {
   static void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param);
   static void on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param);
   static uint64_t on_rx_timer(avr_t *avr, uint64_t when, void *param);
+  static uint64_t on_udr_free_timer(avr_t *avr, uint64_t when, void *param);
   static uint64_t on_wake_timer(avr_t *avr, uint64_t when, void *param);
-  static uint64_t on_chunk_end_timer(avr_t *avr, uint64_t when, void *param);
+  static uint64_t on_end_timer(avr_t *avr, uint64_t when, void *param);
   static void no_sleep(avr_t *avr, uint64_t how_long_cycles);
 
   const BoardConfig &board_;
@@ -100,13 +111,17 @@ class AvrAdapter : public SwitchPinDriver {
   std::vector<SwitchPort> switch_ports_;
   std::vector<avr_irq_t *> switch_irqs_;
   bool xoff_ = false;
+  uint64_t tx_shift_free_cycle_ = 0;  // when UART0's transmit shift register is empty
   bool rx_timer_armed_ = false;
   uint64_t next_rx_cycle_ = 0;
   bool wake_armed_ = false;
   uint64_t wake_cycle_ = 0;
+  uint64_t end_cycle_ = UINT64_MAX;
   uint64_t uart_in_bytes_ = 0;
   uint64_t uart_in_lost_ = 0;
   uint64_t uart_out_bytes_ = 0;
+  uint64_t uart_xoff_count_ = 0;
+  uint64_t uart_would_overrun_ = 0;
 };
 
 }  // namespace vboard

@@ -22,7 +22,11 @@ CpuProfiler::CpuProfiler(uint32_t flash_bytes, unsigned vector_count, unsigned v
 
 // Closes an interrupts-off window still open at the end of the run.
 void CpuProfiler::finish(uint64_t cycle, bool i_flag) {
-  if (i_flag || !armed_) return;
+  if (!armed_) {
+    boot_irq_off_cycles_ = cycle;  // interrupts were never enabled
+    return;
+  }
+  if (i_flag) return;
   const uint64_t window_cycles = cycle - off_start_cycle_;
   if (window_cycles > irq_off_max_cycles_) {
     irq_off_max_cycles_ = window_cycles;

@@ -63,7 +63,7 @@ class CpuProfiler {
   uint32_t irq_off_max_pc_bytes() const { return irq_off_max_pc_bytes_; }
   // Cycle at which that window started.
   uint64_t irq_off_max_start_cycle() const { return irq_off_max_start_cycle_; }
-  // Cycles from reset to the first SEI (0 if interrupts were never enabled... see boot_done()).
+  // Cycles from reset to the first SEI (the whole run if interrupts were never enabled).
   uint64_t boot_irq_off_cycles() const { return boot_irq_off_cycles_; }
   // True once interrupts were enabled the first time.
   bool boot_done() const { return armed_; }

@@ -2,6 +2,7 @@
 #ifndef STEPCHOIR_VBOARD_ENDSTOP_SWITCH_H
 #define STEPCHOIR_VBOARD_ENDSTOP_SWITCH_H
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 

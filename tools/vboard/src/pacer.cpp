@@ -24,7 +24,10 @@ int64_t Pacer::ahead_ns(uint64_t cycle, uint64_t wall_ns) {
   const int64_t ahead = static_cast<int64_t>(due_wall_ns(cycle) - wall_ns);
   if (ahead >= 0) return ahead;
   const uint64_t lag_ns = static_cast<uint64_t>(-ahead);
-  if (lag_ns > lag_max_ns_) lag_max_ns_ = lag_ns;
+  if (lag_ns > lag_max_ns_) {
+    lag_max_ns_ = lag_ns;
+    lag_max_cycle_ = cycle;
+  }
   if (lag_ns <= max_catchup_ns_) return ahead;
   const uint64_t give_up_ns = lag_ns - max_catchup_ns_;
   anchor_wall_ns_ += give_up_ns;

@@ -25,6 +25,8 @@ class Pacer {
   int64_t ahead_ns(uint64_t cycle, uint64_t wall_ns);
   // Largest lag seen, ns.
   uint64_t lag_max_ns() const { return lag_max_ns_; }
+  // Simulated cycle at which the largest lag was seen.
+  uint64_t lag_max_cycle() const { return lag_max_cycle_; }
   // Total wall time given up because the simulation could not keep up, ns.
   uint64_t slipped_ns() const { return slipped_ns_; }
 
@@ -34,6 +36,7 @@ class Pacer {
   uint64_t anchor_cycle_ = 0;
   uint64_t anchor_wall_ns_ = 0;
   uint64_t lag_max_ns_ = 0;
+  uint64_t lag_max_cycle_ = 0;
   uint64_t slipped_ns_ = 0;
 };
 

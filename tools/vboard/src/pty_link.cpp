@@ -113,14 +113,12 @@ uint8_t PtyLink::rx_pop() {
   return byte;
 }
 
-// Queues one byte the AVR sent; drops it when the queue is full.
+// Queues one byte the AVR sent; drops it when the queue is full (the loop flushes every chunk,
+// so the queue only fills when nobody reads the pty).
 void PtyLink::tx_push(uint8_t byte) {
   if (tx_queue_.size() >= kTxQueueMax) {
-    flush_tx();
-    if (tx_queue_.size() >= kTxQueueMax) {
-      ++tx_dropped_;
-      return;
-    }
+    ++tx_dropped_;
+    return;
   }
   tx_queue_.push_back(byte);
 }

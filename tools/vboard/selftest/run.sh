@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# run.sh: builds the selftest AVR program, runs it on stepchoir-vboard and checks echo and trace.
+# usage: run.sh PATH/TO/stepchoir-vboard WORK_DIR
+set -euo pipefail
+
+vboard=$1
+work=$2
+here=$(cd "$(dirname "$0")" && pwd)
+mkdir -p "$work"
+elf=$work/vboard-selftest.elf
+trace=$work/selftest-trace.csv
+out=$work/vboard.stdout
+err=$work/vboard.stderr
+travel=3200
+start=1600
+
+avr-gcc -mmcu=atmega328p -DF_CPU=16000000UL -Os -Wall -Wextra -o "$elf" "$here/selftest.c"
+
+"$vboard" --board uno --elf "$elf" --seconds 1 --trace "$trace" --travel-steps $travel \
+  --start-position $start --chatter-us 300 --link "$work/tty" >"$out" 2>"$err" &
+pid=$!
+# Stops the board if the script exits early.
+cleanup() { kill "$pid" 2>/dev/null || true; }
+trap cleanup EXIT
+
+for _ in $(seq 100); do
+  [ -s "$out" ] && break
+  sleep 0.05
+done
+pty=$(sed -n 's/^pty: //p' "$out")
+[ -n "$pty" ] || { echo "no pty line"; cat "$err"; exit 1; }
+[ "$(readlink "$work/tty")" = "$pty" ] || { echo "--link not made"; exit 1; }
+
+python3 "$here/echo_client.py" "$pty"
+
+rc=0
+wait "$pid" || rc=$?
+trap - EXIT
+[ $rc -eq 0 ] || { echo "vboard exited with $rc"; cat "$err"; exit 1; }
+[ "$(wc -l <"$out")" -eq 1 ] || { echo "stdout has more than the pty line"; cat "$out"; exit 1; }
+[ ! -e "$work/tty" ] || { echo "--link not removed"; exit 1; }
+python3 "$here/check_trace.py" "$trace" $travel $start
+grep -E 'irq_off|isr=|uart|end=' "$err" | sed 's/^stepchoir-vboard: /  /'
+echo "vboard selftest passed"

@@ -1,0 +1,293 @@
+// main.cpp: stepchoir-vboard: runs the firmware on a simulated board with a pty serial port.
+#include <limits.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "avr_adapter.h"
+#include "board_config.h"
+#include "cpu_profiler.h"
+#include "elf_symbols.h"
+#include "options.h"
+#include "pacer.h"
+#include "pty_link.h"
+#include "report.h"
+#include "trace_writer.h"
+#include "virtual_board.h"
+
+namespace {
+
+using namespace vboard;
+
+volatile sig_atomic_t g_stop_signal = 0;
+
+// Simulated time per loop chunk: the pty is polled and the trace flushed between chunks.
+constexpr uint64_t kChunkUs = 20;
+// The simulation may run this far ahead of the wall clock before it sleeps.
+constexpr int64_t kAheadBeforeSleepNs = 200 * 1000;
+// When behind, at most this much is caught up in a burst; the rest is given up and reported.
+constexpr uint64_t kMaxCatchupNs = 5 * 1000 * 1000;
+// The trace is written out at least this often (wall time).
+constexpr uint64_t kTraceFlushNs = 250 * 1000 * 1000;
+
+// SIGINT/SIGTERM/SIGHUP: ask the loop to stop.
+void on_stop_signal(int signal_number) { g_stop_signal = signal_number; }
+
+// Monotonic wall clock in ns.
+uint64_t monotonic_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<uint64_t>(ts.tv_nsec);
+}
+
+// Sleeps until the monotonic clock reads wall_ns (returns early on a signal).
+void sleep_until_ns(uint64_t wall_ns) {
+  timespec ts;
+  ts.tv_sec = static_cast<time_t>(wall_ns / 1000000000ull);
+  ts.tv_nsec = static_cast<long>(wall_ns % 1000000000ull);
+  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+}
+
+// Default firmware path: <dir of this binary>/../firmware/stepchoir-<board>.elf.
+std::string default_elf_path(const std::string &board) {
+  char exe[PATH_MAX];
+  const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  std::string dir = ".";
+  if (len > 0) {
+    exe[len] = '\0';
+    dir = exe;
+    const size_t slash = dir.rfind('/');
+    dir = slash == std::string::npos ? "." : dir.substr(0, slash);
+  }
+  return dir + "/../firmware/stepchoir-" + board + ".elf";
+}
+
+// clock_ppm as the trace header shows it (integer when whole).
+std::string ppm_text(double clock_ppm) {
+  char text[64];
+  if (clock_ppm == std::floor(clock_ppm))
+    std::snprintf(text, sizeof text, "%.0f", clock_ppm);
+  else
+    std::snprintf(text, sizeof text, "%g", clock_ppm);
+  return text;
+}
+
+// Keeps stdout for the pty line only: stray library prints go to stderr. Returns the real stdout.
+FILE *reserve_stdout() {
+  std::fflush(stdout);
+  const int real_stdout_fd = dup(STDOUT_FILENO);
+  dup2(STDERR_FILENO, STDOUT_FILENO);
+  FILE *real_stdout = real_stdout_fd >= 0 ? fdopen(real_stdout_fd, "w") : nullptr;
+  return real_stdout;
+}
+
+// Installs the stop signals; ignores SIGPIPE.
+void install_signals() {
+  struct sigaction action;
+  std::memset(&action, 0, sizeof action);
+  action.sa_handler = &on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGHUP, &action, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+}
+
+// How the simulation loop ended.
+struct LoopResult {
+  CoreState state = CoreState::kRunning;
+  uint64_t wall_ns = 0;  // wall time the loop ran
+  uint64_t lag_max_ns = 0;
+  uint64_t lag_max_cycle = 0;
+  uint64_t slipped_ns = 0;
+};
+
+// The simulation loop: chunks of kChunkUs simulated time; between chunks the pty is polled and
+// flushed, the trace written out now and then, and (when pacing) the loop sleeps while ahead.
+LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter &avr, PtyLink &link,
+                    TraceWriter &trace) {
+  prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);  // 1 us sleep precision instead of 50 us
+  const uint64_t chunk_cycles = board.f_cpu_hz / 1000000 * kChunkUs;
+  const uint64_t end_cycle =
+      options.seconds > 0 ? static_cast<uint64_t>(std::llround(options.seconds * board.f_cpu_hz)) : UINT64_MAX;
+  Pacer pacer(board.f_cpu_hz, options.clock_ppm, kMaxCatchupNs);
+  const uint64_t start_wall_ns = monotonic_ns();
+  pacer.start(avr.cycle(), start_wall_ns);
+  avr.set_end_cycle(end_cycle);
+  uint64_t last_trace_flush_ns = start_wall_ns;
+  LoopResult result;
+
+  while (!g_stop_signal && avr.cycle() < end_cycle) {
+    link.poll_rx();
+    avr.kick_rx();
+    const uint64_t left_cycles = end_cycle - avr.cycle();
+    result.state = avr.run_until(left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle);
+    link.flush_tx();
+    avr.maintain();
+    if (result.state != CoreState::kRunning) break;
+    const uint64_t now_ns = monotonic_ns();
+    if (now_ns - last_trace_flush_ns >= kTraceFlushNs) {
+      trace.flush();
+      last_trace_flush_ns = now_ns;
+    }
+    if (options.pacing && pacer.ahead_ns(avr.cycle(), now_ns) > kAheadBeforeSleepNs)
+      sleep_until_ns(pacer.due_wall_ns(avr.cycle()));
+  }
+  link.flush_tx();
+  result.wall_ns = monotonic_ns() - start_wall_ns;
+  result.lag_max_ns = pacer.lag_max_ns();
+  result.lag_max_cycle = pacer.lag_max_cycle();
+  result.slipped_ns = pacer.slipped_ns();
+  return result;
+}
+
+// Collects the run-level numbers for the summary.
+RunFacts gather_facts(const Options &options, const BoardConfig &board, const AvrAdapter &avr,
+                      const PtyLink &link, const LoopResult &result) {
+  RunFacts facts;
+  facts.end_reason = result.state == CoreState::kCrashed ? "crashed"
+                     : result.state == CoreState::kDone  ? "done"
+                     : g_stop_signal                     ? "signal"
+                                                         : "seconds";
+  facts.end_cycle = avr.cycle();
+  facts.f_cpu_hz = board.f_cpu_hz;
+  facts.vector_count = board.vector_count;
+  facts.vector_size_bytes = avr.vector_size_bytes();
+  facts.pacing = options.pacing;
+  facts.clock_ppm = options.clock_ppm;
+  facts.wall_seconds = static_cast<double>(result.wall_ns) / 1e9;
+  facts.lag_max_ns = result.lag_max_ns;
+  facts.lag_max_cycle = result.lag_max_cycle;
+  facts.slipped_ns = result.slipped_ns;
+  facts.uart_in_bytes = avr.uart_in_bytes();
+  facts.uart_in_lost = avr.uart_in_lost();
+  facts.uart_xoff_count = avr.uart_xoff_count();
+  facts.uart_would_overrun = avr.uart_would_overrun();
+  facts.uart_out_bytes = avr.uart_out_bytes();
+  facts.uart_dropped = link.tx_dropped();
+  facts.host_bytes = link.rx_bytes();
+  return facts;
+}
+
+// Trace header line, CSV header and "#" lines describing the setup and the state at cycle 0.
+void write_trace_preamble(const Options &options, const BoardConfig &board, const std::string &elf_path,
+                          const VirtualBoard &model, TraceWriter &trace) {
+  trace.header(board.cli_name, board.f_cpu_hz, ppm_text(options.clock_ppm),
+               static_cast<unsigned>(board.motors.size()), options.travel_steps);
+  trace.comment("elf=" + elf_path + " switch_active=" + (options.switch_active_low ? "low" : "high") +
+                " chatter_us=" + std::to_string(options.chatter_us) +
+                " start_position=" + std::to_string(options.start_position_steps) +
+                " seed=" + std::to_string(options.seed));
+  for (const std::string &line : model.initial_lines()) trace.comment(line);
+}
+
+// Everything one run needs, in construction order. real_stdout receives the pty line only.
+int run(const Options &options, FILE *real_stdout) {
+  BoardConfig board;
+  board_config_for(options.board, board);
+  const std::string elf_path = options.elf_path.empty() ? default_elf_path(options.board) : options.elf_path;
+  if (access(elf_path.c_str(), R_OK) != 0) {
+    std::fprintf(stderr, "stepchoir-vboard: firmware %s: %s\n", elf_path.c_str(), std::strerror(errno));
+    return 1;
+  }
+  std::string error;
+
+  TraceWriter trace;
+  if (!options.trace_path.empty() && !trace.open(options.trace_path, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
+  CodeSymbols symbols;
+  if (!symbols.load(elf_path, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
+
+  ModelSettings settings;
+  settings.travel_steps = options.travel_steps;
+  settings.start_position_steps = options.start_position_steps;
+  settings.switch_active_low = options.switch_active_low;
+  settings.chatter_cycles = options.chatter_us * (board.f_cpu_hz / 1000000);
+  settings.seed = options.seed;
+  VirtualBoard model(board, settings, trace);
+  model.settle_initial_switches();
+
+  PtyLink link;
+  if (!link.open(error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
+  AvrAdapter avr(board, model, link);
+  model.set_driver(&avr);
+  if (!avr.load(elf_path, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
+  std::unique_ptr<CpuProfiler> profiler;
+  if (options.measure) {
+    profiler.reset(new CpuProfiler(avr.flash_bytes(), board.vector_count, avr.vector_size_bytes(),
+                                   symbols.isr_ranges()));
+    avr.set_profiler(profiler.get());
+  }
+  if (!options.link_path.empty() && !link.make_link(options.link_path, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
+
+  write_trace_preamble(options, board, elf_path, model, trace);
+
+  if (real_stdout) {
+    std::fprintf(real_stdout, "pty: %s\n", link.slave_path().c_str());
+    std::fflush(real_stdout);
+  }
+  const LoopResult result = simulate(options, board, avr, link, trace);
+
+  if (profiler) profiler->finish(avr.cycle(), avr.interrupts_enabled());
+  const RunFacts facts = gather_facts(options, board, avr, link, result);
+  const std::vector<std::string> summary = summary_lines(facts, model, profiler.get(), symbols);
+  trace.comment("end cycle=" + std::to_string(facts.end_cycle));
+  for (const std::string &line : summary) trace.comment("summary " + line);
+  trace.close();
+  if (!options.quiet)
+    for (const std::string &line : summary) std::fprintf(stderr, "stepchoir-vboard: %s\n", line.c_str());
+  link.remove_link();
+
+  const CoreState state = result.state;
+  if (state == CoreState::kCrashed || state == CoreState::kDone) {
+    std::fprintf(stderr, "stepchoir-vboard: the AVR %s at cycle %llu (simavr state %s)\n",
+                 state == CoreState::kCrashed ? "crashed" : "stopped (sleep with interrupts off)",
+                 static_cast<unsigned long long>(facts.end_cycle),
+                 state == CoreState::kCrashed ? "cpu_Crashed" : "cpu_Done");
+    return 2;
+  }
+  return 0;
+}
+
+}  // namespace
+
+// Parses the command line and runs the board.
+int main(int argc, char **argv) {
+  vboard::Options options;
+  std::string error;
+  if (!vboard::parse_options(argc, argv, options, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n%s", error.c_str(), vboard::usage_text());
+    return 1;
+  }
+  if (options.help) {
+    std::fputs(vboard::usage_text(), stdout);
+    return 0;
+  }
+  FILE *real_stdout = reserve_stdout();  // before simavr can print anything
+  install_signals();
+  vboard::AvrAdapter::install_logger(options.quiet);
+  return run(options, real_stdout);
+}

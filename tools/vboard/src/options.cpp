@@ -1,0 +1,153 @@
+// options.cpp: command-line parsing for stepchoir-vboard.
+#include "options.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+namespace vboard {
+
+namespace {
+
+// Parses a whole string as a signed integer.
+bool parse_int(const std::string &text, int64_t &value) {
+  if (text.empty()) return false;
+  char *end = nullptr;
+  errno = 0;
+  const long long parsed = std::strtoll(text.c_str(), &end, 10);
+  if (errno != 0 || *end != '\0') return false;
+  value = parsed;
+  return true;
+}
+
+// Parses a whole string as a finite real number.
+bool parse_real(const std::string &text, double &value) {
+  if (text.empty()) return false;
+  char *end = nullptr;
+  errno = 0;
+  const double parsed = std::strtod(text.c_str(), &end);
+  if (errno != 0 || *end != '\0' || !std::isfinite(parsed)) return false;
+  value = parsed;
+  return true;
+}
+
+}  // namespace
+
+// Usage text.
+const char *usage_text() {
+  return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
+         "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
+         "          [--start-position N] [--switch-active high|low] [--chatter-us N]\n"
+         "          [--seed N] [--no-measure] [--quiet]\n"
+         "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
+         "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
+         "  --link PATH         symlink to the pty, removed on exit\n"
+         "  --clock-ppm N       crystal error: the board runs 16e6*(1+N/1e6) cycles per second\n"
+         "  --no-pacing         run as fast as possible instead of in real time\n"
+         "  --seconds S         stop after S simulated seconds (default: until SIGINT/SIGTERM)\n"
+         "  --trace FILE        CSV of step/dir/enable/endstop/bounce events\n"
+         "  --travel-steps N    rail length (default 3200); --start-position N (default N/2)\n"
+         "  --switch-active L   level of a pressed end switch (default low)\n"
+         "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
+         "  --seed N            seed for the bounce pattern (default 1)\n"
+         "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
+         "  --quiet             no summary on stderr\n";
+}
+
+// Parses argv.
+bool parse_options(int argc, char **argv, Options &options, std::string &error) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    // Returns the option's value (the next argument), or fails.
+    auto value_of = [&](std::string &value) {
+      if (i + 1 >= argc) {
+        error = arg + " needs a value";
+        return false;
+      }
+      value = argv[++i];
+      return true;
+    };
+    std::string value;
+    if (arg == "-h" || arg == "--help") {
+      options.help = true;
+    } else if (arg == "--board") {
+      if (!value_of(options.board)) return false;
+      if (options.board != "uno" && options.board != "mega") {
+        error = "--board must be uno or mega";
+        return false;
+      }
+    } else if (arg == "--elf") {
+      if (!value_of(options.elf_path)) return false;
+    } else if (arg == "--link") {
+      if (!value_of(options.link_path)) return false;
+    } else if (arg == "--trace") {
+      if (!value_of(options.trace_path)) return false;
+    } else if (arg == "--clock-ppm") {
+      if (!value_of(value)) return false;
+      if (!parse_real(value, options.clock_ppm) || std::fabs(options.clock_ppm) >= 1e6) {
+        error = "--clock-ppm needs a number between -1e6 and 1e6";
+        return false;
+      }
+    } else if (arg == "--no-pacing") {
+      options.pacing = false;
+    } else if (arg == "--seconds") {
+      if (!value_of(value)) return false;
+      if (!parse_real(value, options.seconds) || options.seconds <= 0) {
+        error = "--seconds needs a positive number";
+        return false;
+      }
+    } else if (arg == "--travel-steps") {
+      if (!value_of(value)) return false;
+      if (!parse_int(value, options.travel_steps) || options.travel_steps <= 0) {
+        error = "--travel-steps needs a positive integer";
+        return false;
+      }
+    } else if (arg == "--start-position") {
+      if (!value_of(value)) return false;
+      if (!parse_int(value, options.start_position_steps)) {
+        error = "--start-position needs an integer";
+        return false;
+      }
+      options.start_position_given = true;
+    } else if (arg == "--switch-active") {
+      if (!value_of(value)) return false;
+      if (value != "high" && value != "low") {
+        error = "--switch-active must be high or low";
+        return false;
+      }
+      options.switch_active_low = value == "low";
+    } else if (arg == "--chatter-us") {
+      int64_t chatter_us = 0;
+      if (!value_of(value)) return false;
+      if (!parse_int(value, chatter_us) || chatter_us < 0) {
+        error = "--chatter-us needs a non-negative integer";
+        return false;
+      }
+      options.chatter_us = static_cast<uint64_t>(chatter_us);
+    } else if (arg == "--seed") {
+      int64_t seed = 0;
+      if (!value_of(value)) return false;
+      if (!parse_int(value, seed)) {
+        error = "--seed needs an integer";
+        return false;
+      }
+      options.seed = static_cast<uint64_t>(seed);
+    } else if (arg == "--quiet") {
+      options.quiet = true;
+    } else if (arg == "--no-measure") {
+      options.measure = false;
+    } else {
+      error = "unknown argument " + arg;
+      return false;
+    }
+  }
+  if (options.help) return true;
+  if (options.board.empty()) {
+    error = "--board uno|mega is required";
+    return false;
+  }
+  if (!options.start_position_given) options.start_position_steps = options.travel_steps / 2;
+  return true;
+}
+
+}  // namespace vboard

@@ -1,0 +1,37 @@
+// options.h: command-line options of stepchoir-vboard.
+#ifndef STEPCHOIR_VBOARD_OPTIONS_H
+#define STEPCHOIR_VBOARD_OPTIONS_H
+
+#include <cstdint>
+#include <string>
+
+namespace vboard {
+
+// Parsed command line.
+struct Options {
+  std::string board;       // "uno" | "mega"
+  std::string elf_path;    // empty = default next to the binary
+  std::string link_path;   // empty = no symlink
+  std::string trace_path;  // empty = no trace
+  double clock_ppm = 0;
+  bool pacing = true;
+  double seconds = 0;  // 0 = until SIGINT/SIGTERM
+  int64_t travel_steps = 3200;
+  int64_t start_position_steps = 0;
+  bool start_position_given = false;
+  bool switch_active_low = true;
+  uint64_t chatter_us = 0;
+  uint64_t seed = 1;
+  bool quiet = false;
+  bool measure = true;
+  bool help = false;
+};
+
+// Parses argv; on error fills error and returns false.
+bool parse_options(int argc, char **argv, Options &options, std::string &error);
+// Usage text.
+const char *usage_text();
+
+}  // namespace vboard
+
+#endif  // STEPCHOIR_VBOARD_OPTIONS_H

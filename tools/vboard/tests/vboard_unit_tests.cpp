@@ -1,0 +1,244 @@
+// vboard_unit_tests.cpp: unit tests of the virtual board's pure logic (no simavr).
+#define CATCH_CONFIG_MAIN
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "board_config.h"
+#include "carriage.h"
+#include "cpu_profiler.h"
+#include "endstop_switch.h"
+#include "pacer.h"
+#include "trace_writer.h"
+#include "virtual_board.h"
+
+using namespace vboard;
+
+namespace {
+
+// Records what the model asks of the simulator.
+struct FakeDriver : SwitchPinDriver {
+  std::vector<std::pair<size_t, bool>> levels;
+  std::vector<uint64_t> wakeups;
+  // Records a switch pin level.
+  void drive_switch_pin(size_t switch_index, bool level) override { levels.push_back({switch_index, level}); }
+  // Records a wakeup request.
+  void wake_at(uint64_t cycle) override { wakeups.push_back(cycle); }
+};
+
+// Reads a whole temporary stream back.
+std::string read_back(FILE *stream) {
+  std::rewind(stream);
+  std::string text;
+  char buffer[4096];
+  size_t count;
+  while ((count = std::fread(buffer, 1, sizeof buffer, stream)) > 0) text.append(buffer, count);
+  return text;
+}
+
+}  // namespace
+
+TEST_CASE("carriage moves only when enabled and records overshoot") {
+  Carriage c(10, 9);
+  CHECK(c.step(true, true));
+  CHECK(c.at_max());
+  CHECK_FALSE(c.step(true, false));
+  CHECK(c.disabled_steps() == 1);
+  c.step(true, true);
+  c.step(true, true);
+  CHECK(c.position_steps() == 12);
+  CHECK(c.overshoot_steps() == 2);
+  for (int i = 0; i < 13; ++i) c.step(false, true);
+  CHECK(c.position_steps() == -1);
+  CHECK(c.at_min());
+  CHECK(c.overshoot_steps() == 2);
+  CHECK(c.steps() == 16);
+}
+
+TEST_CASE("switch without chatter changes the pin once") {
+  EndstopSwitch sw(true, 0, 1);
+  CHECK(sw.pin_level());
+  CHECK(sw.set_pressed(true, 100));
+  CHECK_FALSE(sw.set_pressed(true, 101));
+  SwitchPinEvent e;
+  REQUIRE(sw.pop_due(100, e));
+  CHECK_FALSE(e.level);
+  CHECK_FALSE(e.bounce);
+  CHECK_FALSE(sw.has_pending());
+}
+
+TEST_CASE("chatter is an even number of toggles inside the window and settles") {
+  for (uint64_t seed = 1; seed < 50; ++seed) {
+    EndstopSwitch sw(true, 1600, seed);
+    sw.set_pressed(true, 1000);
+    SwitchPinEvent e;
+    REQUIRE(sw.pop_due(1000, e));
+    int toggles = 0;
+    uint64_t last = 1000;
+    while (sw.has_pending()) {
+      const uint64_t at = sw.next_event_cycle();
+      CHECK(at > last);
+      CHECK(at <= 1000 + 1600 + 6);
+      REQUIRE(sw.pop_due(at, e));
+      CHECK(e.bounce);
+      last = at;
+      ++toggles;
+    }
+    CHECK((toggles == 2 || toggles == 4 || toggles == 6));
+    CHECK_FALSE(sw.pin_level());  // pressed, active low
+  }
+}
+
+TEST_CASE("chatter is deterministic for a seed") {
+  EndstopSwitch a(false, 800, 7), b(false, 800, 7);
+  a.set_pressed(true, 0);
+  b.set_pressed(true, 0);
+  SwitchPinEvent ea, eb;
+  while (a.has_pending()) {
+    REQUIRE(b.has_pending());
+    a.pop_due(UINT64_MAX, ea);
+    b.pop_due(UINT64_MAX, eb);
+    CHECK(ea.cycle == eb.cycle);
+  }
+}
+
+TEST_CASE("pacer maps cycles to wall time with the crystal error and bounds catch-up") {
+  Pacer fast(16e6, 100000, 5000000);  // +10 %
+  fast.start(0, 1000);
+  CHECK(fast.due_wall_ns(17600000) == 1000 + 1000000000ull);
+  Pacer p(16e6, 0, 5000000);
+  p.start(0, 0);
+  CHECK(p.ahead_ns(16000, 500000) == 500000);  // 1 ms simulated at 0.5 ms wall
+  CHECK(p.ahead_ns(16000, 3000000) == -2000000);
+  CHECK(p.ahead_ns(16000, 21000000) == -5000000);  // 20 ms behind: 15 ms given up
+  CHECK(p.lag_max_ns() == 20000000);
+  CHECK(p.slipped_ns() == 15000000);
+  CHECK(p.due_wall_ns(16000) == 16000000);
+}
+
+TEST_CASE("trace writer formats header and rows") {
+  FILE *stream = std::tmpfile();
+  REQUIRE(stream);
+  {
+    TraceWriter t;
+    t.attach(stream);
+    t.header("uno", 16000000, "0", 4, 3200);
+    t.step(0, 123, true, -5, 7);
+    t.dir(1, 18446744073709551615ull, false, 42);
+    t.endstop(2, 9, true, 3200);
+    t.bounce(2, 10, false, 3200);
+    t.enable(3, 0, true);
+    t.comment("end cycle=11");
+    t.flush();
+  }
+  CHECK(read_back(stream) ==
+        "# stepchoir-vboard trace v1 board=uno f_cpu=16000000 clock_ppm=0 motors=4 travel_steps=3200\n"
+        "event,motor,cycle,value,position,width\n"
+        "step,0,123,1,-5,7\n"
+        "dir,1,18446744073709551615,0,42,\n"
+        "endstop,2,9,1,3200,\n"
+        "bounce,2,10,0,3200,\n"
+        "enable,3,0,1,,\n"
+        "# end cycle=11\n");
+  std::fclose(stream);
+}
+
+TEST_CASE("profiler measures interrupts-off windows and ISR invocations") {
+  // Flash 256 bytes, 4 vectors of 4 bytes; __vector_2 body at 0x40..0x50.
+  CpuProfiler prof(256, 4, 4, {{2, 0x40, 0x50}});
+  auto step = [&](uint32_t pc0, uint32_t pc1, uint64_t c0, uint64_t c1, bool i0, bool i1, bool reti) {
+    prof.on_step({pc0, pc1, c0, c1, true, reti, i0, i1});
+  };
+  step(0x80, 0x82, 0, 10, false, true, false);    // boot: SEI at cycle 10
+  step(0x82, 0x84, 10, 11, true, false, false);   // CLI at 10
+  step(0x84, 0x86, 11, 31, false, true, false);   // SEI, window 10..31
+  step(0x86, 0x08, 31, 36, true, false, false);   // interrupt taken: vector slot 2 at 36
+  step(0x08, 0x40, 36, 39, false, false, false);  // JMP
+  step(0x40, 0x4e, 39, 60, false, false, false);  // body
+  step(0x4e, 0x88, 60, 64, false, true, true);    // RETI
+  prof.finish(64, true);
+  CHECK(prof.boot_irq_off_cycles() == 10);
+  CHECK(prof.irq_off_max_cycles() == 28);  // 36..64
+  CHECK(prof.irq_off_max_pc_bytes() == 0x08);
+  const IsrStats &isr = prof.isr_stats()[2];
+  CHECK(isr.entries == 1);
+  CHECK(isr.body_cycles == 25);
+  CHECK(isr.max_cycles == 28);
+  CHECK(isr.inclusive_cycles == 28);
+  CHECK(isr.max_irq_off_cycles == 28);
+}
+
+TEST_CASE("virtual board: steps, shared switch, enable and trace rows") {
+  BoardConfig board;
+  REQUIRE(board_config_for("uno", board));
+  REQUIRE(board.motors.size() == 4);
+  FILE *stream = std::tmpfile();
+  TraceWriter trace;
+  trace.attach(stream);
+  ModelSettings settings;
+  settings.travel_steps = 4;
+  settings.start_position_steps = 2;
+  VirtualBoard model(board, settings, trace);
+  FakeDriver driver;
+  model.set_driver(&driver);
+  model.settle_initial_switches();
+
+  size_t step_pin = 0, dir_pin = 0, enable_pin = 0;
+  for (size_t i = 0; i < model.watched_pins().size(); ++i) {
+    const WatchedPin &w = model.watched_pins()[i];
+    if (w.pin.same_as(board.motors[0].step)) step_pin = i;
+    if (w.pin.same_as(board.motors[0].dir)) dir_pin = i;
+    if (w.pin.same_as(board.motors[0].enable)) enable_pin = i;
+  }
+  CHECK(model.watched_pins()[enable_pin].users.size() == 4);  // D8 shared by all sockets
+  CHECK(model.switch_inputs().size() == 3);                    // X, Y, Z: one shared input each
+
+  auto pulse = [&](uint64_t at) {
+    model.on_output_pin(step_pin, true, at);
+    model.on_output_pin(step_pin, false, at + 5);
+  };
+  pulse(10);  // disabled: does not move
+  CHECK(model.motors()[0].carriage.disabled_steps() == 1);
+  model.on_output_pin(enable_pin, false, 20);
+  model.on_output_pin(dir_pin, true, 30);
+  pulse(40);
+  pulse(50);  // reaches 4 = travel: switch pressed
+  REQUIRE(driver.levels.size() == 1);
+  CHECK_FALSE(driver.levels[0].second);
+  model.on_output_pin(dir_pin, false, 60);
+  pulse(70);  // back to 3: released
+  REQUIRE(driver.levels.size() == 2);
+  CHECK(driver.levels[1].second);
+  for (int i = 0; i < 4; ++i) pulse(80 + 10 * i);  // down to -1: the same input, pressed again
+  REQUIRE(driver.levels.size() == 3);
+  CHECK(model.motors()[0].carriage.position_steps() == -1);
+  CHECK(model.motors()[0].carriage.overshoot_steps() == 1);
+  trace.flush();
+  const std::string text = read_back(stream);
+  CHECK(text.find("step,0,10,0,2,5\n") != std::string::npos);
+  CHECK(text.find("enable,0,20,0,,\nenable,1,20,0,,\nenable,2,20,0,,\nenable,3,20,0,,\n") != std::string::npos);
+  CHECK(text.find("endstop,0,50,1,4,\n") != std::string::npos);
+  CHECK(text.find("step,0,50,1,4,5\n") != std::string::npos);
+  CHECK(text.find("endstop,0,70,0,3,\n") != std::string::npos);
+  CHECK(text.find("endstop,0,100,1,0,\n") != std::string::npos);
+  std::fclose(stream);
+}
+
+TEST_CASE("virtual board starts with a touched switch pressed") {
+  BoardConfig board;
+  REQUIRE(board_config_for("mega", board));
+  TraceWriter trace;
+  ModelSettings settings;
+  settings.start_position_steps = 0;
+  settings.switch_active_low = false;
+  VirtualBoard model(board, settings, trace);
+  model.settle_initial_switches();
+  REQUIRE(model.switch_inputs().size() == 6);
+  for (const SwitchInput &input : model.switch_inputs()) {
+    const bool is_min = !input.users[0].max_end;
+    CHECK(input.contact.pressed() == is_min);
+    CHECK(input.contact.pin_level() == is_min);  // active high
+  }
+}
