@@ -32,8 +32,9 @@ static const uint8_t kMaxFrameWire = kMaxPayload + kCrcBytes + 2;  // + COBS cod
 
 static const uint8_t kPeriodFracBits = 8;
 static const uint32_t kPeriodQ8Max = 0x0FFFFFFFul;  // 28 bits: 1,048,575.996 ticks (15.26 Hz at 16 MHz)
-// Shortest period the firmware accepts from any message: 25 us (40 kHz steps).
-static const uint32_t kPeriodQ8Min = 400ul << kPeriodFracBits;
+// Shortest period the firmware accepts from any message: 200 us (5 kHz steps), above the top
+// of a piano (C8, 4186 Hz) and within what the step ISR sustains while the board still answers.
+static const uint32_t kPeriodQ8Min = 3200ul << kPeriodFracBits;
 static const uint32_t kPeriodSilent = 0;      // period 0 means: stop stepping
 
 // ---------------------------------------------------------------------------------------------

@@ -23,7 +23,9 @@ void Commands::on_byte(uint8_t byte) {
   }
   ++frames_ok_;
   last_frame_ticks_ = hal::now_ticks();
-  watchdog_tripped_ = false;
+  const uint8_t type = decoder_.payload()[0];
+  // The watchdog flag stays up for the status replies until music is sent again.
+  if ((type & kSetPeriodFlag) || type == kMsgAt || type == kMsgResetCounters) watchdog_tripped_ = false;
   handle(decoder_.payload(), decoder_.payload_len());
 }
 
@@ -156,7 +158,7 @@ void Commands::poll() {
   const uint32_t now = hal::now_ticks();
   // Timestamped entries: a silent motor starts exactly at its time, so hand it over a little
   // early; a sounding motor changes at its next edge after the hand-over.
-  static const uint32_t kHandOverTicks = 2000;  // 125 us at 16 MHz: longer than a main-loop pass
+  static const uint32_t kHandOverTicks = 8000;  // 500 us at 16 MHz: longer than a main-loop pass
   while (queue_used_ != 0) {
     const AtEntry &e = queue_[queue_head_];
     const int32_t ahead = (int32_t)(e.at_ticks - now);

@@ -40,6 +40,7 @@ class Commands {
   uint16_t frames_bad() const { return frames_bad_; }
   uint8_t last_error() const { return last_error_; }
   uint8_t queue_used() const { return queue_used_; }
+  // True from a watchdog stop until the next set-period, at or reset-counters frame.
   bool watchdog_tripped() const { return watchdog_tripped_; }
 
  private:

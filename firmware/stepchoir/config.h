@@ -44,7 +44,7 @@ static const uint16_t kEarlyTicks = 450;
 // An edge due within this long is waited for rather than starting a piece of other work: the
 // longest piece (a command, ~350 cycles) stretched by the UART's ISR nesting at full speed,
 // plus kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
-static const uint16_t kSoonTicks = 900;
+static const uint16_t kSoonTicks = 1200;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is
@@ -84,7 +84,7 @@ static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");
 static_assert(kCliLeadTicks + kPulseUsMax * 16u <= 320u, "lead + longest pulse: at most 20 us with interrupts off");
-static_assert(kRescheduleTicks < (sc::kPeriodQ8Min >> sc::kPeriodFracBits) + 200u,
+static_assert(kRescheduleTicks + kComebackTicks < (sc::kPeriodQ8Min >> sc::kPeriodFracBits),
               "a played motor is rescheduled before its next step");
 static_assert(kSoonTicks > kEarlyTicks + kMinLeadTicks, "an armed edge is never already soon");
 static_assert(kWakeTicks <= 32768u, "kWakeTicks: the 16-bit timer extension needs <= 32768");

@@ -20,7 +20,7 @@ uint8_t endstops(uint8_t m);
 // The board's name as reported in kMsgCaps.
 const char *board_name();
 
-// Board time: CPU ticks since power-up, wrapping at 2^32.
+// Board time: CPU ticks since the step timer started (about 1 ms after reset), wrapping at 2^32.
 uint32_t now_ticks();
 
 // Plays motor m at period_q8 (CPU ticks, 8 fractional bits; 0 = silence) from now on, keeping

@@ -72,14 +72,44 @@ ISR(SC_UART_RX_VECT, ISR_NAKED) {
       [tail] "i"(&g_rx_tail), [buf] "i"(g_rx), [mask] "M"(kRxMask), [errors] "i"(&g_rx_errors));
 }
 
-// UART data-register-empty ISR. Who: the transmitter wants a byte. Budget: about 35 cycles.
-ISR(SC_UART_UDRE_VECT) {
-  if (g_tx_head == g_tx_tail) {
-    UCSR0B &= (uint8_t)~_BV(UDRIE0);
-    return;
-  }
-  UDR0 = g_tx[g_tx_tail];
-  g_tx_tail = (uint8_t)((g_tx_tail + 1) & kTxMask);
+// UART data-register-empty ISR. Who: the transmitter wants a byte (every 10 us while a reply
+// goes out). In assembly for the same reason as the receive ISR: 36 cycles, against 64.
+ISR(SC_UART_UDRE_VECT, ISR_NAKED) {
+  __asm__ __volatile__(
+      "push r24\n\t"
+      "in r24, __SREG__\n\t"
+      "push r24\n\t"
+      "push r25\n\t"
+      "push r30\n\t"
+      "push r31\n\t"
+      "lds r30, %[tail]\n\t"
+      "lds r25, %[head]\n\t"
+      "cp r30, r25\n\t"
+      "breq 1f\n\t"
+      "mov r25, r30\n\t"
+      "ldi r31, 0\n\t"
+      "subi r30, lo8(-(%[buf]))\n\t"
+      "sbci r31, hi8(-(%[buf]))\n\t"
+      "ld r24, Z\n\t"
+      "sts %[udr], r24\n\t"
+      "inc r25\n\t"
+      "andi r25, %[mask]\n\t"
+      "sts %[tail], r25\n\t"
+      "rjmp 2f\n\t"
+      "1:\n\t"
+      "lds r24, %[ucsrb]\n\t"
+      "andi r24, %[noudrie]\n\t"
+      "sts %[ucsrb], r24\n\t"
+      "2:\n\t"
+      "pop r31\n\t"
+      "pop r30\n\t"
+      "pop r25\n\t"
+      "pop r24\n\t"
+      "out __SREG__, r24\n\t"
+      "pop r24\n\t"
+      "reti\n\t" ::[tail] "i"(&g_tx_tail),
+      [head] "i"(&g_tx_head), [buf] "i"(g_tx), [udr] "i"(_SFR_MEM_ADDR(UDR0)), [mask] "M"(kTxMask),
+      [ucsrb] "i"(_SFR_MEM_ADDR(UCSR0B)), [noudrie] "M"(0xFF & ~_BV(UDRIE0)));
 }
 
 namespace link {

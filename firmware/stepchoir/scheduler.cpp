@@ -324,7 +324,7 @@ __attribute__((noinline)) bool arm() {
   uint32_t target = now + cfg::kWakeTicks;
   if (g_active) {
     const uint32_t head = g_order[0]->deadline;
-    if ((int32_t)(head - now) <= (int32_t)cfg::kSoonTicks) return false;
+    if ((int32_t)(head - now) <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks)) return false;
     if ((int32_t)(head - cfg::kEarlyTicks - now) <= (int32_t)cfg::kWakeTicks) target = head - cfg::kEarlyTicks;
   }
   g_armed = target;
@@ -435,10 +435,10 @@ bool sounding(uint8_t mi) {
 
 // Step ISR. Who: Timer1 compare A, kEarlyTicks before each deadline, every 2 ms to extend the
 // timer, or kMinLeadTicks after the main loop posted a command. It masks itself and runs with
-// interrupts on (the UART nests freely) except for each burst: from kCliLeadTicks before an
-// edge until its pulse is lowered. Work comes in small pieces (one motor's rescheduling, one
-// step's bookkeeping, one command), and before each piece it checks that no edge is due
-// within kSoonTicks. It returns only with nothing left to do.
+// interrupts on (the UART nests freely) except from kCliLeadTicks before each edge until it
+// is raised. Work comes in small pieces (one motor's rescheduling, one step's bookkeeping, one
+// command), each started only when no edge is due within kSoonTicks. It returns when nothing
+// is left to do and the next edge is far enough to come back for it.
 // Measured on the virtual board: bench/results/pitch-<board>.md.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
@@ -447,9 +447,13 @@ ISR(TIMER1_COMPA_vect) {
   for (;;) {
     const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
     g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
+    const bool pending = g_played_count || g_moved_count || g_cmd_mask;
     if (g_active) {
-      const uint32_t head = g_order[0]->deadline;
-      if ((int32_t)(head - now) <= (int32_t)cfg::kSoonTicks) {
+      // Wait for the edge when it is too close to return and come back for it, or when there
+      // is work left that might not fit before it.
+      const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
+      if (ahead <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks) ||
+          (pending && ahead <= (int32_t)cfg::kSoonTicks)) {
         burst();
         continue;
       }

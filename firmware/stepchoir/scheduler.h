@@ -6,19 +6,20 @@
 //
 //   deadline(k+1) = deadline(k) + period_q8 / 256      (32-bit ticks + 8-bit fraction)
 //
-//   OCR1A match (kEarlyTicks before the deadline): prologue and waiting with interrupts on
-//            | cli kCliLeadTicks before the edge
-//            v        v deadline: raise       v pulse over: lower, sei()
-//   STEP x   _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|_____________________________________
-//   STEP y   ______________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|_____  (due within kChainTicks: same burst)
-//                                              then, one motor at a time with interrupts on:
-//                                              position, endstops, soft limits, ramp,
-//                                              deadline += period, sorted insert
+// The compare unit fires kEarlyTicks before the earliest deadline. The ISR masks itself and
+// runs with interrupts on; it turns them off only from kCliLeadTicks before an edge until the
+// STEP pin is raised, so every edge lands on its tick whichever way the ISR got there:
 //
-// Every raise waits for its own deadline tick, whichever way the ISR got there, so edges
-// carry no entry-latency jitter. Between two motors' bookkeeping the ISR checks whether the
-// next edge is due within kSoonTicks and plays it first. Measured on the virtual board: see
-// docs/ARCHITECTURE.md and bench/results.
+//   OCR1A match      cli          raise             lower (pulse over)
+//   |--- I on -------|-- I off ---|------ I on -----|
+//   STEP  ____________________________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________
+//
+// Motors due within kComebackTicks of the previous edge are played in the same burst. Between
+// bursts the ISR does its other work in small pieces, each only when no edge is due within
+// kSoonTicks: a played motor's next deadline and sorted place, a step's position and endstop
+// bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox.
+// The main loop never touches the order itself: its critical sections stay short.
+// Measured on the virtual board: bench/results/pitch-<board>.md.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H
 
@@ -52,7 +53,7 @@ void set_motion(uint8_t m, const Motion &motion);
 // Called from: main loop. Silences every motor at once.
 void silence_all();
 
-// Called from: main loop. True when motor m is stepping.
+// Called from: main loop. True when motor m is stepping or has a command waiting.
 bool sounding(uint8_t m);
 
 }  // namespace sched

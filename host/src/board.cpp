@@ -77,17 +77,21 @@ std::optional<std::vector<uint8_t>> Board::wait_reply(uint8_t type, int timeout_
   const auto deadline = clock::now() + std::chrono::milliseconds(timeout_ms);
   uint8_t buf[256];
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - clock::now()).count();
-    if (left <= 0) return std::nullopt;
-    const long n = link_->read(buf, sizeof buf, static_cast<int>(left));
-    if (n < 0) throw std::runtime_error(link_->name() + ": read failed");
-    for (long i = 0; i < n; ++i) {
-      if (decoder_.push(buf[i]) != sc::kFrameOk) continue;
+    // Bytes left over from an earlier read come first: replies can arrive back to back.
+    while (pending_pos_ < pending_.size()) {
+      if (decoder_.push(pending_[pending_pos_++]) != sc::kFrameOk) continue;
       const uint8_t *p = decoder_.payload();
       const uint8_t len = decoder_.payload_len();
       if (p[0] == sc::kMsgError && len >= 4) errors_.push_back({p[1], p[2], p[3]});
       if (p[0] == type) return std::vector<uint8_t>(p, p + len);
     }
+    pending_.clear();
+    pending_pos_ = 0;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - clock::now()).count();
+    if (left <= 0) return std::nullopt;
+    const long n = link_->read(buf, sizeof buf, static_cast<int>(left));
+    if (n < 0) throw std::runtime_error(link_->name() + ": read failed");
+    pending_.assign(buf, buf + n);
   }
 }
 

@@ -60,7 +60,8 @@ class Board {
   // Sends one delimiter, so the board drops any partial frame left from before.
   void resync();
 
-  // Waits for the next reply of `type` (others are kept in `errors` if they are errors).
+  // Waits for the next reply of `type`; replies of other types are skipped (errors are kept in
+  // errors()), bytes after it are kept for the next call.
   std::optional<std::vector<uint8_t>> wait_reply(uint8_t type, int timeout_ms);
 
   // Asks for capabilities, retrying a few times; throws when the board never answers.
@@ -77,6 +78,8 @@ class Board {
  private:
   std::unique_ptr<Link> link_;
   sc::FrameDecoder decoder_;
+  std::vector<uint8_t> pending_;  // bytes read but not yet decoded
+  size_t pending_pos_ = 0;
   std::vector<BoardError> errors_;
 };
 

@@ -138,6 +138,30 @@ inline uint32_t clock_reply(stepchoir::Board &b, uint8_t seq, int timeout_ms = 5
   }
 }
 
+// Reads frames straight from the link until `count` frames of type `type` have arrived and
+// returns them in order. Unlike Board::wait_reply, which drops whatever else came in the
+// same read, it loses no reply that arrives right behind another. Throws on timeout.
+inline std::vector<std::vector<uint8_t>> read_replies(stepchoir::Board &b, uint8_t type, size_t count,
+                                                     int timeout_ms = 5000) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  sc::FrameDecoder dec;
+  std::vector<std::vector<uint8_t>> out;
+  uint8_t buf[256];
+  while (out.size() < count) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(give_up - std::chrono::steady_clock::now()).count();
+    if (left <= 0)
+      throw std::runtime_error("got " + std::to_string(out.size()) + " of " + std::to_string(count) +
+                               " replies of type " + std::to_string(type));
+    const long n = b.link().read(buf, sizeof buf, static_cast<int>(left));
+    if (n < 0) throw std::runtime_error("read failed");
+    for (long i = 0; i < n; ++i)
+      if (dec.push(buf[i]) == sc::kFrameOk && dec.payload()[0] == type)
+        out.emplace_back(dec.payload(), dec.payload() + dec.payload_len());
+  }
+  return out;
+}
+
 // Polls the board clock (every 2 ms of wall time) until it reaches target_ticks; returns the
 // last clock read. The clock requests are frames, so they also keep the watchdog fed.
 inline uint32_t wait_board_time(stepchoir::Board &b, uint32_t target_ticks, int wall_limit_ms = 60000) {

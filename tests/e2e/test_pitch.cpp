@@ -56,7 +56,7 @@ tr::Trace play_chords(const std::string &board_name, std::vector<std::vector<uin
   CHECK(frames > 100);
   REQUIRE(vb.wait() == 0);
   tr::Trace t = tr::read_trace(trace_path);
-  // the chord times in the trace's cycles: board ticks count from power-up, as cycles do
+  // board ticks start about 1 ms after the trace's cycle 0: the windows below allow for it
   t.summary_lines.push_back("t0=" + std::to_string(t0));
   return t;
 }
@@ -109,11 +109,11 @@ const Bounds kFullSpeed = {150.0, 400.0};
 const Bounds kLiveTraffic = {25.0, 60.0};
 const Bounds kTarget = {2.0, 8.0};
 
-TEST_CASE("uno: every motor in tune across MIDI 24-108, frames at full speed") {
+TEST_CASE("uno: every motor in tune across MIDI 24-108 - frames at full speed") {
   check_chords("uno", 0, kFullSpeed);
 }
 
-TEST_CASE("mega: every motor in tune across MIDI 24-108, frames at full speed") {
+TEST_CASE("mega: every motor in tune across MIDI 24-108 - frames at full speed") {
   check_chords("mega", 0, kFullSpeed);
 }
 
@@ -142,6 +142,7 @@ TEST_CASE("uno and mega: a motor alone is in tune and on time to 2 us across MID
     e2e::flood_until_exit(b, vb, nullptr, &status, 10000);
     REQUIRE(vb.wait() == 0);
     const tr::Trace t = tr::read_trace(trace_path);
+    std::vector<double> residuals_us;  // every edge of every note, one offset removed per note
     for (int i = 0; i < 8; ++i) {
       const uint64_t from = t0 + uint64_t((i * note_s + kSettleSeconds) * t.f_cpu_hz);
       const uint64_t to = t0 + uint64_t((i + 0.85) * note_s * t.f_cpu_hz);
@@ -151,8 +152,11 @@ TEST_CASE("uno and mega: a motor alone is in tune and on time to 2 us across MID
       const tr::PitchFit f = tr::fit_edges(edges, periods[i] / 256.0, t.f_cpu_hz);
       INFO("cents " << f.cents_error << " p99 " << f.residual_p99_us << " us, max " << f.residual_max_us << " us");
       CHECK(std::abs(f.cents_error) < 0.05);
-      CHECK(f.residual_p99_us < kTarget.p99_us);
       CHECK(f.residual_max_us < kTarget.max_us);
+      for (double r : tr::grid_residuals_cycles(edges, periods[i] / 256.0)) residuals_us.push_back(std::abs(r) * 1e6 / t.f_cpu_hz);
     }
+    const double p99_us = tr::percentile_nearest_rank(residuals_us, 0.99);
+    std::printf("%s alone: %zu edges, p99 %.3f us\n", board.c_str(), residuals_us.size(), p99_us);
+    CHECK(p99_us < kTarget.p99_us);
   }
 }

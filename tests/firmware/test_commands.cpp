@@ -171,7 +171,7 @@ TEST_CASE("garbage is counted as bad frames") {
   CHECK(c.last_error() == sc::kErrFrameTooLong);
 }
 
-TEST_CASE("watchdog stops everything once when frames stop, and re-arms on the next frame") {
+TEST_CASE("watchdog stops everything once when frames stop - and re-arms when music resumes") {
   auto &c = fresh();
   std::vector<uint8_t> p(4);
   sc::put_entry(&p[0], 0, 9309091);
@@ -189,7 +189,12 @@ TEST_CASE("watchdog stops everything once when frames stop, and re-arms on the n
   c.poll();
   CHECK(g_hal.calls.empty());  // once
   feed(c, wire({sc::kMsgHeartbeat}));
+  CHECK(c.watchdog_tripped());  // still reported to a status request after the stop
+  feed(c, wire(p));
   CHECK_FALSE(c.watchdog_tripped());
+  g_hal.now += timeout + 10;
+  c.poll();
+  CHECK(c.watchdog_tripped());  // armed again
 }
 
 TEST_CASE("watchdog timeout is settable and 0 turns it off") {
@@ -204,7 +209,7 @@ TEST_CASE("watchdog timeout is settable and 0 turns it off") {
   CHECK(c.watchdog_tripped());
 }
 
-TEST_CASE("timestamped entries start in order, late ones at once, a full queue refuses") {
+TEST_CASE("timestamped entries start in order - late ones at once - a full queue refuses") {
   auto &c = fresh();
   auto at = [&](uint32_t t, uint8_t m, uint32_t p) {
     std::vector<uint8_t> pl(9);

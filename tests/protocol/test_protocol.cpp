@@ -91,7 +91,7 @@ TEST_CASE("host encoders produce the spec's payloads") {
   }
 }
 
-TEST_CASE("one motor costs 8 bytes on the wire, each extra chord motor 4") {
+TEST_CASE("one motor costs 8 bytes on the wire - each extra chord motor 4") {
   for (uint8_t n = 1; n <= 5; ++n) {
     std::vector<sc::PeriodEntry> e;
     for (uint8_t m = 0; m < n; ++m) e.push_back({m, hz_to_period_q8(30.0 + 1000.0 * m, 16000000)});
