@@ -26,69 +26,8 @@ extern char **environ;
 
 namespace e2e {
 
-// The virtual board as a child process, like VboardProcess, but stop() ends it with SIGTERM
-// (which makes it finish its trace) and hands back its exit status.
-class StoppableVboard {
- public:
-  // Starts stepchoir-vboard with `args` after the binary name; waits for its pty line.
-  explicit StoppableVboard(const std::vector<std::string> &args) {
-    int out[2];
-    if (pipe(out) != 0) throw std::runtime_error("pipe failed");
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
-    posix_spawn_file_actions_addclose(&fa, out[0]);
-    std::vector<std::string> all{STEPCHOIR_VBOARD};
-    all.insert(all.end(), args.begin(), args.end());
-    std::vector<char *> argv;
-    for (auto &a : all) argv.push_back(const_cast<char *>(a.c_str()));
-    argv.push_back(nullptr);
-    const int rc = posix_spawn(&pid_, argv[0], &fa, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&fa);
-    close(out[1]);
-    if (rc != 0) {
-      close(out[0]);
-      throw std::runtime_error(std::string("cannot start ") + STEPCHOIR_VBOARD);
-    }
-    out_ = fdopen(out[0], "r");
-    char line[256];
-    if (!fgets(line, sizeof line, out_)) throw std::runtime_error("virtual board printed no pty line");
-    const std::string s(line);
-    if (s.rfind("pty: ", 0) != 0) throw std::runtime_error("virtual board said: " + s);
-    pty_ = s.substr(5, s.find_last_not_of("\r\n") - 4);
-  }
-
-  StoppableVboard(const StoppableVboard &) = delete;
-  StoppableVboard &operator=(const StoppableVboard &) = delete;
-
-  // Stops the board if it still runs.
-  ~StoppableVboard() {
-    if (pid_ > 0) stop();
-    if (out_) fclose(out_);
-  }
-
-  // Path of the board's pty.
-  const std::string &pty() const { return pty_; }
-
-  // Ends the board with SIGTERM and waits: its exit status, -1 if a signal killed it
-  // (the vboard exits 0 on SIGTERM, 2 when the AVR crashed).
-  int stop() {
-    if (pid_ <= 0) return status_;
-    kill(pid_, SIGTERM);
-    int status = 0;
-    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
-    pid_ = -1;
-    status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return status_;
-  }
-
- private:
-  pid_t pid_ = -1;
-  int status_ = -1;
-  FILE *out_ = nullptr;
-  std::string pty_;
-};
+// The virtual board as a child process; stop() ends it with SIGTERM and returns its status.
+using StoppableVboard = VboardProcess;
 
 // A ConfigBody for `motor`: A4988 at 16 microsteps, switches active low (the vboard's default),
 // the full period range, no onset ramp, 2 us pulses, and the given travel.

@@ -555,3 +555,34 @@ TEST_CASE("safety: uno survives 300 kB of garbage at full speed - hello - status
   INFO("tone after the garbage: " << f.cents_error << " cents, p99 residual " << f.residual_p99_us << " us");
   CHECK(std::abs(f.cents_error) < 0.05);
 }
+
+TEST_CASE("safety: uno onset ramp - the period shrinks by the configured step from the start speed") {
+  Rig r("safety-ramp-uno", "uno", {});
+  r.b.send(e2e::watchdog_payload(0));
+  sc::ConfigBody c = e2e::motor_config(1, 3200);
+  const uint32_t target_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);  // 8000 ticks
+  c.start_period_q8 = hz_to_period_q8(500.0, r.caps.f_cpu_hz);          // 32000 ticks
+  c.accel_q8 = 1000u << sc::kPeriodFracBits;                            // 1000 ticks a step
+  r.b.send(config_payload(c));
+  REQUIRE_FALSE(r.b.wait_reply(sc::kMsgError, 200));
+  const uint32_t at = e2e::start_note_at(r.b, 1, target_q8, r.caps.f_cpu_hz);
+  e2e::wait_board_time(r.b, at + r.ticks(0.1));
+  r.b.send(e2e::tone_payload(1, 0));
+  const tr::Trace t = r.finish();
+  const auto &steps = t.motor[1].steps;
+  REQUIRE(steps.size() > 40);
+  // intervals: 31000, 30000, ... (the first step uses the start period, each next one 1000
+  // ticks less) until the target, then the target
+  std::vector<int64_t> interval;
+  for (size_t i = 1; i < steps.size(); ++i) interval.push_back(int64_t(steps[i].rise_cycle - steps[i - 1].rise_cycle));
+  const int64_t start = c.start_period_q8 >> sc::kPeriodFracBits, target = target_q8 >> sc::kPeriodFracBits;
+  const int64_t ramp = c.accel_q8 >> sc::kPeriodFracBits;
+  size_t ramp_steps = 0;
+  for (size_t i = 0; i < interval.size() && interval[i] > target + 100; ++i) {
+    INFO("interval " << i << ": " << interval[i]);
+    CHECK(std::llabs(interval[i] - (start - ramp * int64_t(i + 1))) <= 64);  // within the edge timing
+    ++ramp_steps;
+  }
+  CHECK(ramp_steps == size_t((start - target) / ramp) - 1);
+  for (size_t i = ramp_steps + 1; i < interval.size(); ++i) CHECK(std::llabs(interval[i] - target) <= 64);
+}

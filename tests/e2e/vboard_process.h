@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
@@ -42,21 +43,34 @@ class VboardProcess {
     pty_ = s.substr(5, s.find_last_not_of("\r\n") - 4);
   }
 
+  VboardProcess(const VboardProcess &) = delete;
+  VboardProcess &operator=(const VboardProcess &) = delete;
+
+  // Stops the board if it still runs.
   ~VboardProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGTERM);
-      wait();
-    }
+    if (pid_ > 0) stop();
     if (out_) fclose(out_);
+  }
+
+  // Ends the board with SIGTERM (it then finishes its trace) and waits: its exit status, -1 if
+  // a signal killed it (the vboard exits 0 on SIGTERM, 2 when the AVR crashed).
+  int stop() {
+    if (pid_ > 0) kill(pid_, SIGTERM);
+    return wait();
   }
 
   const std::string &pty() const { return pty_; }
 
-  // Waits for the board to exit (e.g. after --seconds); returns its exit status.
+  // Waits for the board to exit (e.g. after --seconds); returns its exit status (again on
+  // later calls), -1 if a signal killed it.
   int wait() {
+    if (pid_ <= 0) return status_;
     int status = 0;
-    if (pid_ > 0 && waitpid(pid_, &status, 0) == pid_) pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return status_;
   }
 
   // True while the process runs.
@@ -65,6 +79,7 @@ class VboardProcess {
     int status;
     if (waitpid(pid_, &status, WNOHANG) == pid_) {
       pid_ = -1;
+      status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
       return false;
     }
     return true;
@@ -78,6 +93,7 @@ class VboardProcess {
 
  private:
   pid_t pid_ = -1;
+  int status_ = -1;
   FILE *out_ = nullptr;
   std::string pty_;
 };

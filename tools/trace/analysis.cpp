@@ -48,7 +48,18 @@ PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period
   const size_t n = edge_cycles.size();
   fit.edge_count = n;
   fit.ideal_period_cycles = ideal_period_cycles;
-  fit.mean_period_cycles = double(edge_cycles.back() - edge_cycles.front()) / double(n - 1);
+  // The period is the least-squares slope of edge time against edge index: every edge counts,
+  // so a late first or last edge does not bias the pitch (first-to-last would). Times are
+  // taken relative to the first edge to keep the sums exact in doubles.
+  double sum_k = 0, sum_t = 0, sum_kk = 0, sum_kt = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double t = double(edge_cycles[k] - edge_cycles.front());
+    sum_k += double(k);
+    sum_t += t;
+    sum_kk += double(k) * double(k);
+    sum_kt += double(k) * t;
+  }
+  fit.mean_period_cycles = (double(n) * sum_kt - sum_k * sum_t) / (double(n) * sum_kk - sum_k * sum_k);
   fit.ideal_hz = f_cpu_hz / ideal_period_cycles;
   fit.measured_hz = f_cpu_hz / fit.mean_period_cycles;
   fit.cents_error = kCentsPerOctave * std::log2(ideal_period_cycles / fit.mean_period_cycles);

@@ -24,7 +24,7 @@ constexpr double kMicrosPerSecond = 1e6;
 struct PitchFit {
   size_t edge_count = 0;
   double ideal_period_cycles = 0;
-  double mean_period_cycles = 0;   // (last - first) / (n - 1)
+  double mean_period_cycles = 0;   // least-squares slope of edge time against edge index
   double ideal_hz = 0;             // f_cpu_hz / ideal_period_cycles
   double measured_hz = 0;          // f_cpu_hz / mean_period_cycles
   double cents_error = 0;          // 1200 * log2(ideal_period / measured_period); + = sharp
@@ -37,7 +37,8 @@ struct PitchFit {
   double residual_max_us = 0;
 };
 
-// Fits edges (ascending CPU cycles, at least 2) against an ideal period. f_cpu_hz converts
+// Fits edges (ascending CPU cycles, at least 2) against an ideal period: the measured period
+// is the least-squares slope of edge time against index. f_cpu_hz converts
 // cycles to Hz and us: pass trace.f_cpu_hz for board time or trace.real_f_cpu_hz() for real
 // time. Throws std::invalid_argument on fewer than 2 edges or a non-positive period/clock.
 PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period_cycles,
