@@ -156,8 +156,8 @@ void Commands::handle(const uint8_t *p, uint8_t len) {
 
 void Commands::poll() {
   const uint32_t now = hal::now_ticks();
-  // Timestamped entries: a silent motor starts exactly at its time, so hand it over a little
-  // early; a sounding motor changes at its next edge after the hand-over.
+  // Timestamped entries go to the step ISR a little before their time; it starts a silent
+  // motor, or strikes a sounding one again, exactly on the entry's time.
   static const uint32_t kHandOverTicks = 8000;  // 500 us at 16 MHz: longer than a main-loop pass
   while (queue_used_ != 0) {
     const AtEntry &e = queue_[queue_head_];

@@ -425,11 +425,6 @@ void silence_all() {
   }
 }
 
-bool sounding(uint8_t mi) {
-  bool s;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { s = g_motor[mi].period_q8 != 0 || g_motor[mi].cmd != kCmdNone; }
-  return s;
-}
 
 }  // namespace sched
 

@@ -53,9 +53,6 @@ void set_motion(uint8_t m, const Motion &motion);
 // Called from: main loop. Silences every motor at once.
 void silence_all();
 
-// Called from: main loop. True when motor m is stepping or has a command waiting.
-bool sounding(uint8_t m);
-
 }  // namespace sched
 
 #endif  // STEPCHOIR_SCHEDULER_H
