@@ -1,0 +1,206 @@
+// allocator.h: the pure note-to-motor allocation engine: MIDI channel messages in, motor periods out.
+//
+// The Allocator owns no I/O, no threads and no heap: every table is a fixed array inside the
+// object, so after construction nothing it does allocates, blocks, logs or throws. It is meant
+// to live on the real-time engine thread, which feeds it one MidiEvent at a time and sends the
+// period entries it returns to the boards.
+//
+// Motors are numbered 0 .. motor_count-1 across the whole setup; mapping an index to a board
+// and the board's own motor number is the caller's business (sc::PeriodEntry::motor carries
+// the allocator's index).
+//
+// Policies (AllocatorConfig::policy):
+//   kPoly     every channel shares every motor. A note takes a free motor that can play it;
+//             when none is free it steals one (Priority: the oldest note, or keeps the lowest
+//             notes, or keeps the highest notes). A stolen or refused note is forgotten: it
+//             does not come back when a motor frees up.
+//   kChannel  MIDI channel n plays on motor n alone (channels >= motor_count are ignored),
+//             monophonic with last-note priority and note memory, as kMono.
+//   kMono     each channel owns a group of motors (AllocatorConfig::mono_channel). The channel
+//             plays one note at a time, in unison on every motor of its group; the last key
+//             pressed sounds, and releasing it returns to the most recent key still held.
+//
+// Per motor: a playable range, octave folding into it, transpose, tuning offset and a set of
+// muted notes (resonances). Range and muted notes apply to the note the motor plays, that is
+// after transpose and before bend and tuning. A note outside the range moves by whole octaves
+// to the nearest octave inside it; a muted note moves to the nearest unmuted octave inside the
+// range; in kPoly a motor that plays the note unfolded is preferred to one that must fold it.
+// A motor that cannot play a note at all (every octave of it muted) does not take it.
+//
+// MIDI handled, per channel: note on/off (velocity 0 = off), sustain pedal (CC64), pitch bend
+// with a per-channel range (RPN 0 through CC101/100 + CC6/38), all-sound-off (CC120),
+// reset-all-controllers (CC121), all-notes-off (CC123; CC124-127 imply it, as MIDI says).
+// Channel mode messages act on the channel they arrive on, as MIDI defines; panic() acts on
+// everything. Every other message is ignored.
+#ifndef STEPCHOIR_HOST_ALLOCATOR_H
+#define STEPCHOIR_HOST_ALLOCATOR_H
+
+#include <array>
+#include <bitset>
+#include <cstddef>
+#include <cstdint>
+
+#include "midi_event.h"
+#include "pitch.h"
+#include "stepchoir_protocol.h"
+
+namespace stepchoir {
+
+enum class Policy : uint8_t { kPoly, kChannel, kMono };
+
+// kPoly only: which sounding note loses its motor when a new note finds none free.
+enum class Priority : uint8_t {
+  kOldest,   // steal the motor whose note started longest ago
+  kLowest,   // lowest-note priority: steal the highest note, unless the new note is higher still
+  kHighest,  // highest-note priority: steal the lowest note, unless the new note is lower still
+};
+
+// One motor's musical settings.
+struct MotorConfig {
+  uint32_t f_cpu_hz = 16000000;  // clock of the board driving this motor (Caps::f_cpu_hz)
+  uint8_t lowest_note = 21;      // playable range, MIDI notes, inclusive (default: piano, A0..C8,
+  uint8_t highest_note = 108;    //   which stays within the firmware's period limits at 16 MHz)
+  int8_t transpose = 0;          // semitones added to every note before folding
+  double tuning_cents = 0.0;     // added to every note's pitch
+  std::bitset<128> muted;        // MIDI notes this motor must not play (after transpose)
+};
+
+struct AllocatorConfig {
+  static constexpr size_t kMaxMotors = 32;  // motors one Allocator can drive
+
+  uint8_t motor_count = 1;  // 1 .. kMaxMotors
+  Policy policy = Policy::kPoly;
+  Priority priority = Priority::kOldest;
+  double a4_hz = kA4Hz;     // tuning reference for every motor
+  std::array<MotorConfig, kMaxMotors> motors{};
+  // kMono only: the channel (0-15) whose group motor m belongs to, or -1 for none.
+  std::array<int8_t, kMaxMotors> mono_channel = filled(-1);
+
+ private:
+  static constexpr std::array<int8_t, kMaxMotors> filled(int8_t v) {
+    std::array<int8_t, kMaxMotors> a{};
+    for (auto &x : a) x = v;
+    return a;
+  }
+};
+
+// What one motor plays, for displays and tests.
+struct MotorState {
+  bool sounding = false;    // the motor plays a note (its period may still be 0 if the
+                            //   pitch is below what the period field can hold)
+  uint8_t channel = 0;      // MIDI channel of the note, 0-15
+  uint8_t note = 0;         // the MIDI key, as received
+  uint8_t played_note = 0;  // the note the motor plays: key + transpose, folded
+  bool held = false;        // the key is down
+  bool sustained = false;   // the key is up and the sustain pedal holds the note
+  uint32_t period_q8 = sc::kPeriodSilent;  // current period, ticks q8, 0 = silent
+};
+
+class Allocator {
+ public:
+  static constexpr size_t kMaxMotors = AllocatorConfig::kMaxMotors;
+  static constexpr uint8_t kDefaultBendRange = 2;  // semitones each way
+
+  // Why a configuration is unusable, or nullptr when it is fine.
+  // Called from: any thread. Does not allocate or block.
+  static const char *validate(const AllocatorConfig &config) noexcept;
+
+  // Starts with every motor silent, pedals up, bends centred, bend ranges at +/-2 semitones.
+  // Throws std::invalid_argument (with validate()'s reason) for an unusable configuration.
+  // Called from: setup code, before the engine thread runs. Does not allocate.
+  explicit Allocator(const AllocatorConfig &config);
+
+  // Replaces the configuration: forgets every note and resets every channel as construction
+  // does; the next flush() (or handle()) silences the motors that were sounding. Returns false
+  // and changes nothing when validate() rejects the configuration.
+  // Called from: the engine thread. Does not allocate or block.
+  bool configure(const AllocatorConfig &config) noexcept;
+
+  // Applies one MIDI event and writes the motors whose period changed because of it (and any
+  // left over from an earlier call) to out, lowest motor first, at most max_out entries.
+  // Returns the count written. With max_out >= motor_count nothing is ever left over; with
+  // less, flush() returns the rest.
+  // Called from: the engine thread. Does not allocate, block or throw.
+  size_t handle(const MidiEvent &event, sc::PeriodEntry *out, size_t max_out) noexcept;
+
+  // Writes the motors whose period changed since it was last reported, at most max_out.
+  // Called from: the engine thread. Does not allocate or block.
+  size_t flush(sc::PeriodEntry *out, size_t max_out) noexcept;
+
+  // Silences everything: forgets every held and sustained note and lifts every sustain
+  // pedal (bends and bend ranges stay). Writes a silent entry for every motor, whatever was
+  // reported before, at most max_out (flush() returns the rest).
+  // Called from: the engine thread. Does not allocate or block.
+  size_t panic(sc::PeriodEntry *out, size_t max_out) noexcept;
+
+  // Changes the tuning reference; sounding motors are retuned (flush() reports them).
+  // Ignored unless a4_hz is finite and positive.
+  // Called from: the engine thread. Does not allocate or block.
+  void set_a4_hz(double a4_hz) noexcept;
+
+  // Queries. Called from: the engine thread (or any thread while the engine is stopped).
+  // Do not allocate or block.
+  MotorState motor(size_t m) const noexcept;          // a default MotorState for m out of range
+  size_t motor_count() const noexcept { return config_.motor_count; }
+  const AllocatorConfig &config() const noexcept { return config_; }
+  double bend_semitones(uint8_t channel) const noexcept;  // current bend of a channel
+  double bend_range_semitones(uint8_t channel) const noexcept;
+  bool sustain(uint8_t channel) const noexcept;           // the channel's pedal is down
+
+ private:
+  static constexpr uint8_t kNone = 0xFF;
+  static constexpr uint32_t kUnreported = 0xFFFFFFFFu;  // never a valid period
+  static constexpr uint16_t kBendCentre = 8192;
+
+  // What a motor is doing. In kMono/kChannel the fields mirror the channel's current note.
+  struct Voice {
+    bool active = false;
+    uint8_t channel = 0, note = 0, played = 0;
+    bool held = false, sustained = false;
+    uint64_t started = 0;  // note-on sequence number (kPoly stealing)
+  };
+
+  struct Channel {
+    bool pedal = false;
+    uint16_t bend = kBendCentre;
+    uint8_t range_semitones = kDefaultBendRange, range_cents = 0;
+    uint8_t rpn_msb = 127, rpn_lsb = 127;  // selected RPN; 127/127 = none
+    // kMono/kChannel note memory: keys in press order, most recent last, no duplicates;
+    // key_up marks keys released while the pedal was down (they still count).
+    std::array<uint8_t, 128> keys{};
+    uint8_t depth = 0;
+    std::bitset<128> key_up;
+  };
+
+  bool is_poly() const noexcept { return config_.policy == Policy::kPoly; }
+  void reset_state() noexcept;
+  void note_on(uint8_t ch, uint8_t note) noexcept;
+  void note_off(uint8_t ch, uint8_t note) noexcept;
+  void control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept;
+  void set_pedal(uint8_t ch, bool down) noexcept;
+  void all_notes_off(uint8_t ch) noexcept;
+  void all_sound_off(uint8_t ch) noexcept;
+  void poly_note_on(uint8_t ch, uint8_t note) noexcept;
+  size_t poly_victim(uint8_t note) const noexcept;  // kNone when the new note must yield
+  void mono_push(uint8_t ch, uint8_t note) noexcept;
+  void mono_remove(uint8_t ch, uint8_t note) noexcept;
+  void mono_update(uint8_t ch) noexcept;  // points the channel's group at its current note
+  // The note motor m plays for a key (transpose, folding, mutes) and how many octaves it had
+  // to move; false when every octave of it inside the range is muted.
+  bool resolve(size_t m, uint8_t note, uint8_t *played, int *octaves) const noexcept;
+  void release(size_t m) noexcept;
+  void retune(size_t m) noexcept;              // recomputes period_[m] from voices_[m]
+  void retune_channel(uint8_t ch) noexcept;
+
+  AllocatorConfig config_;
+  std::array<Voice, kMaxMotors> voices_{};
+  std::array<uint32_t, kMaxMotors> period_{};    // what each motor should play now
+  std::array<uint32_t, kMaxMotors> reported_{};  // what flush() last reported
+  std::array<uint8_t, kMaxMotors> owner_{};      // kMono/kChannel: channel of the group, kNone
+  std::array<Channel, 16> channels_{};
+  uint64_t sequence_ = 0;
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_ALLOCATOR_H
