@@ -37,6 +37,14 @@ static const uint32_t kPeriodQ8Max = 0x0FFFFFFFul;  // 28 bits: 1,048,575.996 ti
 static const uint32_t kPeriodQ8Min = 3200ul << kPeriodFracBits;
 static const uint32_t kPeriodSilent = 0;      // period 0 means: stop stepping
 
+// Watchdog: a board silences every motor when no accepted frame arrived for this long (ms),
+// until a kMsgWatchdog frame sets another time (0 = off).
+static const uint16_t kWatchdogDefaultMs = 300;
+static const uint16_t kWatchdogMinMs = 20;  // shorter (but not 0) is refused: kErrConfig
+
+// Longest travel a motor may be configured with (steps); positions are signed 32-bit.
+static const uint32_t kMaxTravelSteps = 1000000000ul;
+
 // ---------------------------------------------------------------------------------------------
 // Message types: the first payload byte.
 // ---------------------------------------------------------------------------------------------
@@ -147,7 +155,7 @@ struct __attribute__((packed)) CapsBody {
 
 struct __attribute__((packed)) StatusHead {
   uint32_t frames_ok;
-  uint16_t frames_bad;       // CRC, COBS and length failures
+  uint16_t frames_bad;       // frames that failed CRC or COBS, or were refused
   uint16_t uart_overruns;
   uint16_t reversals;        // endstop and soft-limit reversals since the counters were reset
   uint16_t late_edges;       // steps the scheduler had to play late (should stay 0)

@@ -21,12 +21,15 @@ void Commands::on_byte(uint8_t byte) {
     fault(rc);
     return;
   }
+  const uint8_t type = decoder_.payload()[0];
+  if (handle(decoder_.payload(), decoder_.payload_len()) != kErrNone) {
+    ++frames_bad_;  // refused frames neither count as good nor feed the watchdog
+    return;
+  }
   ++frames_ok_;
   last_frame_ticks_ = hal::now_ticks();
-  const uint8_t type = decoder_.payload()[0];
   // The watchdog flag stays up for the status replies until music is sent again.
   if ((type & kSetPeriodFlag) || type == kMsgAt || type == kMsgResetCounters) watchdog_tripped_ = false;
-  handle(decoder_.payload(), decoder_.payload_len());
 }
 
 // Checks one set-period entry against the board and the motor's configured range.
@@ -88,15 +91,16 @@ uint8_t Commands::handle_config(const uint8_t *p, uint8_t len) {
   if (c.min_period_q8 < kPeriodQ8Min || c.max_period_q8 > kPeriodQ8Max ||
       c.min_period_q8 > c.max_period_q8)
     return kErrConfig;
-  if (c.start_period_q8 != 0 && (c.start_period_q8 > kPeriodQ8Max || c.accel_q8 == 0))
+  if (c.start_period_q8 != 0 && (c.start_period_q8 > kPeriodQ8Max || c.accel_q8 == 0 || c.accel_q8 > kPeriodQ8Max))
     return kErrConfig;
+  if (c.travel_steps > kMaxTravelSteps) return kErrConfig;
   const uint8_t rc = hal::configure(c);
   if (rc != kErrNone) return rc;
   limits_[c.motor] = {c.min_period_q8, c.max_period_q8};
   return kErrNone;
 }
 
-void Commands::handle(const uint8_t *p, uint8_t len) {
+uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
   const uint8_t type = p[0];
   uint8_t rc = kErrNone;
   if (type & kSetPeriodFlag) {
@@ -133,6 +137,7 @@ void Commands::handle(const uint8_t *p, uint8_t len) {
         break;
       case kMsgWatchdog:
         if (n != 2) { rc = kErrLength; break; }
+        if (get_u16(body) != 0 && get_u16(body) < kWatchdogMinMs) { rc = kErrConfig; break; }
         watchdog_ticks_ = ms_to_ticks(get_u16(body), F_CPU);
         break;
       case kMsgResetCounters:
@@ -152,10 +157,16 @@ void Commands::handle(const uint8_t *p, uint8_t len) {
     fault(rc);
     reply_error(rc, type, 0);
   }
+  return rc;
 }
 
 void Commands::poll() {
   const uint32_t now = hal::now_ticks();
+  const uint16_t overruns = hal::uart_overruns();
+  if (overruns != seen_overruns_) {
+    seen_overruns_ = overruns;
+    if (overruns) fault(kErrUartOverrun);
+  }
   // Timestamped entries go to the step ISR a little before their time; it starts a silent
   // motor, or strikes a sounding one again, exactly on the entry's time.
   static const uint32_t kHandOverTicks = 8000;  // 500 us at 16 MHz: longer than a main-loop pass

@@ -44,7 +44,8 @@ class Commands {
   bool watchdog_tripped() const { return watchdog_tripped_; }
 
  private:
-  void handle(const uint8_t *p, uint8_t len);
+  // Runs one frame's handler; returns sc::kErrNone or the error it was refused with.
+  uint8_t handle(const uint8_t *p, uint8_t len);
   uint8_t handle_periods(const uint8_t *p, uint8_t len);
   uint8_t handle_at(const uint8_t *p, uint8_t len);
   uint8_t handle_config(const uint8_t *p, uint8_t len);
@@ -66,6 +67,7 @@ class Commands {
   uint32_t last_frame_ticks_ = 0;
   uint32_t watchdog_ticks_ = 0;  // 0 = off
   bool watchdog_tripped_ = false;
+  uint16_t seen_overruns_ = 0;  // UART overrun count last looked at
 };
 
 // Watchdog time in ticks for a timeout in ms at the board's F_CPU (no division at run time

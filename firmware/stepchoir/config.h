@@ -8,9 +8,9 @@
 
 namespace cfg {
 
-// Silence every motor and disable the drivers when no frame arrived for this long (ms).
-// The host sends heartbeats well inside it. Range 20-60000; 0 in a kMsgWatchdog frame disables it.
-static const uint16_t kWatchdogDefaultMs = 300;
+// Silence every motor and disable the drivers when no frame arrived for this long (ms): the
+// protocol's default (sc::kWatchdogDefaultMs). The host sends heartbeats well inside it.
+static const uint16_t kWatchdogDefaultMs = sc::kWatchdogDefaultMs;
 
 // Timestamped set-period entries the board can hold (kMsgAt). Each costs 9 bytes of RAM.
 // Range 4-64; the Uno has 2 KB of RAM in all.
@@ -38,7 +38,7 @@ static const uint16_t kRescheduleTicks = 400;
 static const uint8_t kCliLeadTicks = 64;
 
 // The compare unit fires this long before a deadline: time for the ISR's prologue (run with
-// interrupts on) and a nested UART ISR, before kCliLeadTicks. 16 us.
+// interrupts on) and a nested UART ISR, before kCliLeadTicks. 28 us.
 static const uint16_t kEarlyTicks = 450;
 
 // An edge due within this long is waited for rather than starting a piece of other work: the
@@ -54,6 +54,12 @@ static const uint8_t kMinLeadTicks = 200;
 // A motor that starts from silence plays its first edge this long after the step ISR took
 // its command (ticks): the ISR is running then, so this only has to cover its own loop.
 static const uint16_t kStartLeadTicks = 600;
+
+// Overload guard (ticks): a step ISR invocation running longer than kMaxIsrTicks stops waiting
+// for edges and returns once its bookkeeping is done, leaving the main loop at least
+// kMainSliceTicks to decode frames (stop-all, the watchdog). Edges are late then, never lost.
+static const uint16_t kMaxIsrTicks = 16000;
+static const uint16_t kMainSliceTicks = 1600;
 
 // The step ISR wakes at least this often (ticks) to extend the 16-bit timer to 32 bits.
 static const uint16_t kWakeTicks = 32768;

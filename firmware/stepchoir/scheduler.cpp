@@ -58,14 +58,12 @@ Motor *g_order[5];             // sounding motors not yet played, earliest deadl
 volatile uint8_t g_active;     // how many of g_order are valid
 Motor *g_played[5];            // motors stepped by a burst, waiting for their next deadline
 uint8_t g_played_count;
-Motor *g_moved[8];             // motors whose step waits for its position/endstop bookkeeping
-uint8_t g_moved_head, g_moved_count;
 volatile uint8_t g_cmd_mask;   // bit m: motor m has a command in its mailbox
 uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 32768 ticks)
 volatile uint16_t g_reversals;
 volatile uint16_t g_late_edges;
 volatile uint8_t g_motor_fault;
-// Between two ISR invocations g_played, g_moved and (unless the main loop just posted)
+// Between two ISR invocations g_played and (unless the main loop just posted)
 // g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
 const uint16_t kLateTicks = 32;  // an edge raised more than 2 us after its deadline is late
@@ -202,9 +200,10 @@ inline void next_deadline(Motor &m) {
   m.deadline = next;
 }
 
-// Called from: step ISR (interrupts on), after a burst. Gives the played motor whose next step
-// comes first its next deadline and its place in the order, and queues its bookkeeping.
-__attribute__((noinline)) void reschedule_one() {
+// Called from: step ISR (interrupts on), after a burst. Bookkeeping of the played motor whose
+// next step comes first: position, endstops and soft limits of the step it took (a reversal
+// turns DIR before its next step), then its next deadline and its place in the order.
+__attribute__((noinline)) void bookkeep_one() {
   uint8_t best = 0;
   for (uint8_t i = 1; i < g_played_count; ++i)
     if ((int32_t)(g_played[i]->deadline + (g_played[i]->period_q8 >> 8) - g_played[best]->deadline -
@@ -212,17 +211,9 @@ __attribute__((noinline)) void reschedule_one() {
       best = i;
   Motor *m = g_played[best];
   g_played[best] = g_played[--g_played_count];
+  account_step(*m);
   next_deadline(*m);
   order_insert(m);
-  g_moved[(uint8_t)(g_moved_head + g_moved_count++) & 7] = m;
-}
-
-// Called from: step ISR (interrupts on). Position and endstop bookkeeping of the oldest step.
-__attribute__((noinline)) void account_one() {
-  Motor *m = g_moved[g_moved_head];
-  g_moved_head = (uint8_t)((g_moved_head + 1) & 7);
-  --g_moved_count;
-  account_step(*m);
 }
 
 // Called from: step ISR (interrupts on). Starts a silent motor: direction with more room
@@ -233,7 +224,9 @@ void start(Motor &m, uint32_t period_q8, uint32_t first) {
   if (m.flags & kLimits) up = m.position < (int32_t)(m.travel_steps / 2);
   volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
   const uint8_t mask = up ? m.sw_up_mask : m.sw_down_mask;
-  if (sw && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
+  // A pressed switch ahead turns it round, unless it is one input for both ends (then it says
+  // nothing about which end the carriage is at: the position decides).
+  if (sw && m.sw_up_pin != m.sw_down_pin && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
   if (up) {
     m.flags |= kUp;
     *m.dir_port |= m.dir_mask;
@@ -380,7 +373,6 @@ void init(uint8_t motor_count, const Wiring *wiring) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_active = 0;
     g_played_count = 0;
-    g_moved_count = 0;
     g_cmd_mask = 0;
     TCCR1A = 0;               // normal mode: simavr times it exactly (phase-correct PWM it does not)
     TCCR1B = _BV(CS10);       // no prescaler
@@ -395,15 +387,16 @@ void init(uint8_t motor_count, const Wiring *wiring) {
 void set_motion(uint8_t mi, const Motion &motion) {
   Motor &m = g_motor[mi];
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    m.travel_steps = motion.travel_steps;
     m.pulse_ticks = motion.pulse_ticks;
     m.start_q8 = motion.start_period_q8;
     m.ramp_q8 = motion.ramp_q8;
     if (motion.switch_active_high) m.flags |= kActiveHigh;
     else m.flags &= (uint8_t)~kActiveHigh;
     if (motion.travel_steps) {
+      // A new travel puts the carriage at its middle (where it should be at power-up); the same
+      // travel again keeps the position the motor has counted.
+      if (!(m.flags & kLimits) || m.travel_steps != motion.travel_steps) m.position = (int32_t)(motion.travel_steps / 2);
       m.flags |= kLimits;
-      m.position = (int32_t)(motion.travel_steps / 2);
       const int32_t margin_hi = m.sw_up_pin ? cfg::kSoftMarginSteps : 0;
       const int32_t margin_lo = m.sw_down_pin ? cfg::kSoftMarginSteps : 0;
       m.limit_hi = (int32_t)motion.travel_steps + margin_hi;
@@ -411,6 +404,7 @@ void set_motion(uint8_t mi, const Motion &motion) {
     } else {
       m.flags &= (uint8_t)~kLimits;
     }
+    m.travel_steps = motion.travel_steps;
   }
 }
 
@@ -442,33 +436,41 @@ ISR(TIMER1_COMPA_vect) {
   using namespace sched;
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
   sei();
+  const uint16_t entered = TCNT1;
   for (;;) {
     const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
     g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
-    const bool pending = g_played_count || g_moved_count || g_cmd_mask;
+    // Overload: past kMaxIsrTicks the ISR stops waiting for edges while work is pending, and
+    // returns as soon as the work is done, leaving the main loop kMainSliceTicks. Edges are then
+    // late, but frames, stop-all and the watchdog keep working.
+    const bool overdue = (uint16_t)(TCNT1 - entered) > cfg::kMaxIsrTicks;
+    const bool pending = g_played_count || g_cmd_mask;
     if (g_active) {
       // Wait for the edge when it is too close to return and come back for it, or when there
       // is work left that might not fit before it.
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      if (ahead <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks) ||
-          (pending && ahead <= (int32_t)cfg::kSoonTicks)) {
+      if (!overdue && (ahead <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks) ||
+                       (pending && ahead <= (int32_t)cfg::kSoonTicks))) {
         burst();
         continue;
       }
     }
     if (g_played_count) {
-      reschedule_one();
-    } else if (g_moved_count) {
-      account_one();
+      bookkeep_one();
     } else if (g_cmd_mask) {
       apply_one();
     } else {
       cli();
-      if (arm()) {
-        TIMSK1 |= _BV(OCIE1A);
-        return;  // reti sets I again
+      if (overdue) {
+        g_armed = now_locked() + cfg::kMainSliceTicks;
+        OCR1A = (uint16_t)g_armed;
+        TIFR1 = _BV(OCF1A);
+      } else if (!arm()) {
+        sei();
+        continue;
       }
-      sei();
+      TIMSK1 |= _BV(OCIE1A);
+      return;  // reti sets I again
     }
   }
 }

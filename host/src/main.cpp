@@ -59,20 +59,33 @@ int run_tone(stepchoir::Board &board, int motor, double hz, double seconds) {
     std::fprintf(stderr, "stepchoir tone: --hz %g is below the lowest playable frequency\n", hz);
     return 2;
   }
+  // The board's watchdog may have been switched off by an earlier session: set it, so that the
+  // note stops by itself if this program dies.
+  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
+  board.send({wd, wd + 3});
   board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), period}}));
-  if (auto r = board.wait_reply(sc::kMsgError, 30)) {
-    std::fprintf(stderr, "stepchoir tone: the board refused the note: %s\n", sc::error_name((*r)[1]));
-    return 1;
+  try {
+    if (auto r = board.wait_reply(sc::kMsgError, 30)) {
+      std::fprintf(stderr, "stepchoir tone: the board refused the note: %s\n", sc::error_name((*r)[1]));
+      return 1;
+    }
+    using clock = std::chrono::steady_clock;
+    const auto end = clock::now() + std::chrono::duration_cast<clock::duration>(
+                                        std::chrono::duration<double>(seconds > 0 ? seconds : 1e7));
+    while (!g_stop && clock::now() < end && hz > 0) {
+      board.send({sc::kMsgHeartbeat});
+      const clock::duration left = end - clock::now();
+      std::this_thread::sleep_for(std::min<clock::duration>(std::chrono::milliseconds(100), left));
+    }
+    if (hz > 0) board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), sc::kPeriodSilent}}));
+  } catch (...) {
+    try {  // whatever went wrong, try to leave the motor silent (the watchdog is the backstop)
+      board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), sc::kPeriodSilent}}));
+    } catch (...) {
+    }
+    throw;
   }
-  using clock = std::chrono::steady_clock;
-  const auto end = clock::now() + std::chrono::duration_cast<clock::duration>(
-                                      std::chrono::duration<double>(seconds > 0 ? seconds : 1e7));
-  while (!g_stop && clock::now() < end && hz > 0) {
-    board.send({sc::kMsgHeartbeat});
-    const clock::duration left = end - clock::now();
-    std::this_thread::sleep_for(std::min<clock::duration>(std::chrono::milliseconds(100), left));
-  }
-  if (hz > 0) board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), sc::kPeriodSilent}}));
   return 0;
 }
 
@@ -121,8 +134,16 @@ int main(int argc, char **argv) {
       print_status(*s);
     } else if (app.got_subcommand(panic)) {
       board.resync();
-      board.send({sc::kMsgStopAll});
-      std::printf("stop-all sent to %s\n", port.c_str());
+      for (int attempt = 0;; ++attempt) {
+        board.send({sc::kMsgStopAll});
+        const auto s = board.status(500);
+        bool silent = s && !(s->head.flags & sc::kStatusDriversEnabled);
+        if (s)
+          for (const auto &m : s->motors) silent = silent && !(m.flags & sc::kMotorSounding);
+        if (silent) break;
+        if (attempt == 2) throw std::runtime_error(port + ": stop-all sent, but the board does not report silence");
+      }
+      std::printf("%s: every motor silent, drivers off\n", port.c_str());
     } else if (app.got_subcommand(tone)) {
       return run_tone(board, motor, hz, seconds);
     }

@@ -24,7 +24,11 @@ grep -q "^motor 3 endstops: none" <<<"$out"
 "$bin/stepchoir" tone --port "$link" --motor 2 --hz 440 --seconds 0.5
 status=$("$bin/stepchoir" status --port "$link")
 grep -q "^frames_bad: 0$" <<<"$status"
-"$bin/stepchoir" panic --port "$link" | grep -q "stop-all sent"
+"$bin/stepchoir" tone --port "$link" --motor 1 --hz 300 --seconds 5 & tone=$!
+sleep 1
+"$bin/stepchoir" panic --port "$link" | grep -q "every motor silent, drivers off"
+kill $tone 2>/dev/null || true
+wait $tone 2>/dev/null || true
 if "$bin/stepchoir" tone --port "$link" --motor 9 --hz 440 --seconds 0.1 2>"$dir/err.txt"; then
   echo "tone on motor 9 should fail"; exit 1
 fi
@@ -42,8 +46,10 @@ assert 180 <= len(cycles) <= 260, f"{len(cycles)} steps for 0.5 s at 440 Hz"
 mean = (cycles[-1] - cycles[0]) / (len(cycles) - 1)
 hz = 16e6 / mean
 assert abs(hz - 440) < 0.01, f"measured {hz} Hz"
-others = [l for l in open(sys.argv[1]) if l.startswith('step,') and not l.startswith('step,2,')]
-assert not others, "another motor stepped"
+others = [l for l in open(sys.argv[1]) if l.startswith(('step,0,', 'step,3,'))]
+assert not others, "a motor nobody asked for stepped"
+m1 = [l for l in open(sys.argv[1]) if l.startswith('step,1,')]
+assert 100 < len(m1) < 300 * 2.5, f"motor 1 made {len(m1)} steps: panic did not stop its 5 s tone"
 print(f"cli: {len(cycles)} steps at {hz:.4f} Hz")
 PY
 echo "cli smoke: passed"
