@@ -61,6 +61,11 @@ static const uint16_t kStartLeadTicks = 600;
 static const uint16_t kMaxIsrTicks = 16000;
 static const uint16_t kMainSliceTicks = 1600;
 
+// The main loop re-arms a compare this long overdue (ticks): while the main loop runs, the step
+// ISR is held up at most by its critical sections (a few hundred ticks), so 125 us past the
+// armed time means the compare was missed.
+static const uint16_t kRescueTicks = 2000;
+
 // The step ISR wakes at least this often (ticks) to extend the 16-bit timer to 32 bits.
 static const uint16_t kWakeTicks = 32768;
 

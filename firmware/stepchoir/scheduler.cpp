@@ -386,25 +386,38 @@ void init(uint8_t motor_count, const Wiring *wiring) {
 
 void set_motion(uint8_t mi, const Motion &motion) {
   Motor &m = g_motor[mi];
+  // Work out the new limits first: interrupts stay off only for the stores.
+  const bool limits = motion.travel_steps != 0;
+  const int32_t hi = (int32_t)motion.travel_steps + (m.sw_up_pin ? cfg::kSoftMarginSteps : 0);
+  const int32_t lo = -(int32_t)(m.sw_down_pin ? cfg::kSoftMarginSteps : 0);
+  // A new travel puts the carriage at its middle (where it should be at power-up); the same
+  // travel again keeps the position the motor has counted.
+  const bool recentre = limits && (!(m.flags & kLimits) || m.travel_steps != motion.travel_steps);
+  const int32_t centre = (int32_t)(motion.travel_steps / 2);
+  uint8_t set = limits ? kLimits : 0, clear = limits ? 0 : kLimits;
+  if (motion.switch_active_high) set |= kActiveHigh;
+  else clear |= kActiveHigh;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     m.pulse_ticks = motion.pulse_ticks;
     m.start_q8 = motion.start_period_q8;
     m.ramp_q8 = motion.ramp_q8;
-    if (motion.switch_active_high) m.flags |= kActiveHigh;
-    else m.flags &= (uint8_t)~kActiveHigh;
-    if (motion.travel_steps) {
-      // A new travel puts the carriage at its middle (where it should be at power-up); the same
-      // travel again keeps the position the motor has counted.
-      if (!(m.flags & kLimits) || m.travel_steps != motion.travel_steps) m.position = (int32_t)(motion.travel_steps / 2);
-      m.flags |= kLimits;
-      const int32_t margin_hi = m.sw_up_pin ? cfg::kSoftMarginSteps : 0;
-      const int32_t margin_lo = m.sw_down_pin ? cfg::kSoftMarginSteps : 0;
-      m.limit_hi = (int32_t)motion.travel_steps + margin_hi;
-      m.limit_lo = -margin_lo;
-    } else {
-      m.flags &= (uint8_t)~kLimits;
-    }
+    m.flags = (uint8_t)((m.flags & ~clear) | set);
+    if (recentre) m.position = centre;
+    m.limit_hi = hi;
+    m.limit_lo = lo;
     m.travel_steps = motion.travel_steps;
+  }
+}
+
+void rescue_missed_compare() {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    const int16_t past = (int16_t)(TCNT1 - (uint16_t)g_armed);
+    if (past > (int16_t)cfg::kRescueTicks) {  // the compare should have fired long ago
+      g_armed = now_locked() + cfg::kMinLeadTicks;
+      OCR1A = (uint16_t)g_armed;
+      TIFR1 = _BV(OCF1A);
+      g_late_edges = (uint16_t)(g_late_edges + 1);  // what it was armed for comes late
+    }
   }
 }
 

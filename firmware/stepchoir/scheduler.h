@@ -50,6 +50,11 @@ void init(uint8_t motor_count, const Wiring *wiring);
 // Called from: main loop. Replaces one motor's motion settings.
 void set_motion(uint8_t m, const Motion &motion);
 
+// Called from: main loop, every pass. Defence in depth: if the step ISR's compare is long
+// overdue (never seen on a chip; simavr has been seen to miss one armed close ahead), arms it
+// again at once instead of waiting for the 16-bit timer to come round (4 ms).
+void rescue_missed_compare();
+
 // Called from: main loop. Silences every motor at once.
 void silence_all();
 

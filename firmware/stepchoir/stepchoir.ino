@@ -2,6 +2,7 @@
 // Board: Arduino Uno + CNC Shield V3 or Arduino Mega 2560 + RAMPS 1.4, picked by the MCU.
 #include "commands.h"
 #include "link.h"
+#include "scheduler.h"
 #include "step_driver.h"
 
 static cmd::Commands g_commands;
@@ -18,4 +19,5 @@ void loop() {
   uint8_t byte;
   for (uint8_t i = 0; i < 32 && link::read(&byte); ++i) g_commands.on_byte(byte);
   g_commands.poll();
+  sched::rescue_missed_compare();
 }
