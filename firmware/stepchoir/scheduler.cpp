@@ -46,6 +46,7 @@ struct Motor {
   uint32_t released_since;    // ticks: the switch has read released since then
   uint32_t restrike_at;       // ticks: when a timed note change on a sounding motor strikes
   uint16_t pressed_steps;     // steps taken while the switch still reads pressed
+  int32_t calibration_steps;  // how far the last switch press moved the counted position
   // Mailbox, written by the main loop with interrupts off, read by the step ISR.
   uint8_t cmd;                // Command
   uint32_t cmd_period_q8;
@@ -154,11 +155,19 @@ inline void account_step(Motor &m) {
         reverse = true;
         m.flags &= (uint8_t)~kArmed;
         m.pressed_steps = 0;
-        if (m.flags & kLimits) m.position = up ? (int32_t)m.travel_steps : 0;
+        m.calibration_steps = 0;
+        if (m.flags & kLimits) {  // the switch marks the end: count from there
+          const int32_t end = up ? (int32_t)m.travel_steps : 0;
+          m.calibration_steps = end - m.position;
+          m.position = end;
+        }
       } else if (++m.pressed_steps > cfg::kStuckSteps) {
+        // Still pressed this far from where it fired: the switch is stuck, and that press did
+        // not mark an end. Ignore the switch and undo the position it set.
         m.flags |= kFault;
         m.sw_up_pin = 0;
         m.sw_down_pin = 0;
+        m.position -= m.calibration_steps;
         g_motor_fault = sc::kErrEndstopStuck;
       }
       m.released_since = m.deadline;

@@ -620,3 +620,32 @@ TEST_CASE("safety: uno overloaded by four fast motors still answers - obeys stop
     CHECK(t.motor[m].steps.size() < 3000u * 2u);
   }
 }
+
+TEST_CASE("safety: uno stuck switch - the motor ignores it - reports it and keeps to its travel") {
+  // Motor 0's shared switch reads pressed all the time: the first step takes it for an end and
+  // turns round; 400 steps later the firmware calls it stuck, undoes the position it set and
+  // runs on its soft limits (travel 3200, 8 steps of margin).
+  Rig r("safety-stuck-uno", "uno", {"--stuck-switch", "0"});
+  r.b.send(e2e::watchdog_payload(0));
+  const uint32_t at = e2e::start_note_at(r.b, 0, hz_to_period_q8(4000.0, r.caps.f_cpu_hz), r.caps.f_cpu_hz);
+  e2e::wait_board_time(r.b, at + r.ticks(2.5));
+  const auto st = r.b.status(1000);
+  REQUIRE(st);
+  r.b.send(e2e::tone_payload(0, 0));
+  const tr::Trace t = r.finish();
+  const auto &steps = t.motor[0].steps;
+  REQUIRE(steps.size() > 8000);
+  const int64_t overshoot = tr::max_overshoot_steps(steps, 3200);
+  const std::vector<size_t> rev = tr::reversal_indices(steps);
+  std::printf("uno stuck switch: %zu steps, %zu reversals, overshoot %lld, last error %u, motor flags 0x%02x\n",
+              steps.size(), rev.size(), (long long)overshoot, st->head.last_error, st->motors[0].flags);
+  CHECK(st->head.last_error == sc::kErrEndstopStuck);
+  CHECK((st->motors[0].flags & sc::kMotorEndstopFault) != 0);
+  CHECK(overshoot <= 8);
+  CHECK(rev.size() >= 3);  // it keeps going back and forth on its soft limits
+  for (size_t i = 1; i < rev.size(); ++i) {  // after the first (false) turn, only at the ends
+    const int64_t p = steps[rev[i] - 1].position;
+    INFO("reversal " << i << " at position " << p);
+    CHECK((p <= 8 || p >= 3200 - 8));
+  }
+}

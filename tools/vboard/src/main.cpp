@@ -217,6 +217,7 @@ int run(const Options &options, FILE *real_stdout) {
   settings.start_position_steps = options.start_position_steps;
   settings.switch_active_low = options.switch_active_low;
   settings.chatter_cycles = options.chatter_us * (board.f_cpu_hz / 1000000);
+  settings.stuck_switch_motor = options.stuck_switch_motor;
   settings.seed = options.seed;
   VirtualBoard model(board, settings, trace);
   model.settle_initial_switches();

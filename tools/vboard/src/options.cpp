@@ -37,7 +37,7 @@ bool parse_real(const std::string &text, double &value) {
 const char *usage_text() {
   return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
          "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
-         "          [--start-position N] [--switch-active high|low] [--chatter-us N]\n"
+         "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--no-measure] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
@@ -49,6 +49,7 @@ const char *usage_text() {
          "  --travel-steps N    rail length (default 3200); --start-position N (default N/2)\n"
          "  --switch-active L   level of a pressed end switch (default low)\n"
          "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
+         "  --stuck-switch M    the switches of motor M read pressed all the time (a fault)\n"
          "  --seed N            seed for the bounce pattern (default 1)\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --quiet             no summary on stderr\n";
@@ -116,6 +117,14 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         return false;
       }
       options.switch_active_low = value == "low";
+    } else if (arg == "--stuck-switch") {
+      int64_t motor = 0;
+      if (!value_of(value)) return false;
+      if (!parse_int(value, motor) || motor < 0 || motor > 7) {
+        error = "--stuck-switch needs a motor index 0-7";
+        return false;
+      }
+      options.stuck_switch_motor = static_cast<int>(motor);
     } else if (arg == "--chatter-us") {
       int64_t chatter_us = 0;
       if (!value_of(value)) return false;

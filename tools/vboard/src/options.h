@@ -21,6 +21,7 @@ struct Options {
   bool start_position_given = false;
   bool switch_active_low = true;
   uint64_t chatter_us = 0;
+  int stuck_switch_motor = -1;  // --stuck-switch M: motor M's switches stay pressed
   uint64_t seed = 1;
   bool quiet = false;
   bool measure = true;

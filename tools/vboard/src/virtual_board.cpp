@@ -66,7 +66,7 @@ void VirtualBoard::settle_initial_switches() {
     bool pressed = false;
     for (const SwitchInput::User &user : input.users) {
       const Carriage &c = motors_[user.motor].carriage;
-      pressed = pressed || (user.max_end ? c.at_max() : c.at_min());
+      pressed = pressed || (user.max_end ? c.at_max() : c.at_min()) || int(user.motor) == settings_.stuck_switch_motor;
     }
     input.contact.reset_to(pressed);
   }
@@ -125,7 +125,7 @@ void VirtualBoard::update_switch(size_t switch_index, uint64_t cycle) {
   bool pressed = false;
   for (const SwitchInput::User &user : input.users) {
     const Carriage &c = motors_[user.motor].carriage;
-    pressed = pressed || (user.max_end ? c.at_max() : c.at_min());
+    pressed = pressed || (user.max_end ? c.at_max() : c.at_min()) || int(user.motor) == settings_.stuck_switch_motor;
   }
   if (!input.contact.set_pressed(pressed, cycle)) return;
   ++motors_[input.trace_motor].endstop_changes;

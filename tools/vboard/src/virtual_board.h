@@ -29,6 +29,7 @@ struct ModelSettings {
   int64_t start_position_steps = 1600;
   bool switch_active_low = true;
   uint64_t chatter_cycles = 0;
+  int stuck_switch_motor = -1;  // the switches serving this motor read pressed all the time
   uint64_t seed = 1;
   // Level an undriven ENABLE pin has (pull-up on the CNC shield: drivers start disabled).
   bool enable_idle_level = true;
