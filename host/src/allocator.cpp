@@ -308,8 +308,15 @@ void Allocator::retune(size_t m) noexcept {
     return;
   }
   const MotorConfig &mc = config_.motors[m];
-  const double pitch = v.played + bend_semitones(v.channel) + mc.tuning_cents / 100.0;
-  period_[m] = hz_to_period_q8(note_hz(pitch, config_.a4_hz), mc.f_cpu_hz);
+  double pitch = v.played + bend_semitones(v.channel) + mc.tuning_cents / 100.0;
+  // A bend or tuning may push the note past what a board plays (sc::kPeriodQ8Min and Max):
+  // fold it by octaves, as the range folding does, rather than have the board refuse the frame.
+  uint32_t period = hz_to_period_q8(note_hz(pitch, config_.a4_hz), mc.f_cpu_hz);
+  for (int i = 0; i < 8 && period != sc::kPeriodSilent && period < sc::kPeriodQ8Min; ++i)
+    period = hz_to_period_q8(note_hz(pitch -= 12.0, config_.a4_hz), mc.f_cpu_hz);
+  for (int i = 0; i < 8 && (period == sc::kPeriodSilent || period > sc::kPeriodQ8Max); ++i)
+    period = hz_to_period_q8(note_hz(pitch += 12.0, config_.a4_hz), mc.f_cpu_hz);
+  period_[m] = period;
 }
 
 void Allocator::retune_channel(uint8_t ch) noexcept {

@@ -934,3 +934,18 @@ TEST_CASE("random play keeps every motor on one live note and ends silent") {
   }
   CHECK(r.all_silent());
 }
+
+TEST_CASE("a bend or tuning past what a board plays folds by octaves into its period range") {
+  AllocatorConfig c = poly(1);
+  c.motors[0].tuning_cents = 2400.0;  // two octaves up: C8 would be past 5 kHz
+  Rig r(c);
+  const auto out = r.on(0, 108);
+  REQUIRE(out.size() == 1);
+  CHECK(out[0].period_q8 >= sc::kPeriodQ8Min);
+  CHECK(out[0].period_q8 <= sc::kPeriodQ8Max);
+  // folded by whole octaves: the pitch class is kept
+  const double hz = period_q8_to_hz(out[0].period_q8, kF);
+  const double octaves = std::log2(hz / note_hz(108 + 24));
+  CHECK(std::abs(octaves - std::round(octaves)) < 1e-6);
+  CHECK(std::round(octaves) < 0);
+}
