@@ -60,6 +60,28 @@ struct Rig {
     REQUIRE(rc == 0);
     return tr::read_trace(trace_path);
   }
+
+  // What play_tone leaves: the period sent, the board's status after the note, the trace.
+  struct Played {
+    uint32_t period_q8;
+    Status status;
+    tr::Trace trace;
+  };
+
+  // With the watchdog off, configures `motor` for `travel_steps`, plays `hz` on it for
+  // `seconds` of board time, silences it, reads the status and finishes the run.
+  Played play_tone(uint8_t motor, uint32_t travel_steps, double hz, double seconds) {
+    b.send(e2e::watchdog_payload(0));
+    b.send(config_payload(e2e::motor_config(motor, travel_steps)));
+    const uint32_t period_q8 = hz_to_period_q8(hz, caps.f_cpu_hz);
+    const uint32_t t0 = e2e::board_ticks(b);
+    b.send(e2e::tone_payload(motor, period_q8));
+    e2e::wait_board_time(b, t0 + ticks(seconds));
+    b.send(e2e::tone_payload(motor, 0));
+    const auto st = b.status();
+    REQUIRE(st);
+    return {period_q8, *st, finish()};
+  }
 };
 
 // Presses (P) and reversal steps (R) of one motor in time order, e.g. "PRPRPR"; only presses
@@ -136,16 +158,10 @@ void check_bounce_back(const std::string &board, uint32_t chatter_us) {
   Rig r("safety-bounce-" + board + (chatter_us ? "-chatter" : ""), board, extra);
   REQUIRE(!r.caps.endstops.empty());
   REQUIRE(r.caps.endstops[0] != 0);  // motor 0 has a switch
-  r.b.send(e2e::watchdog_payload(0));
-  r.b.send(config_payload(e2e::motor_config(0, 2 * kRail)));
-  const uint32_t period_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);
-  const uint32_t t0 = e2e::board_ticks(r.b);
-  r.b.send(e2e::tone_payload(0, period_q8));
-  e2e::wait_board_time(r.b, t0 + r.ticks(2.0));
-  r.b.send(e2e::tone_payload(0, 0));
-  const auto st = r.b.status();
-  REQUIRE(st);
-  const tr::Trace t = r.finish();
+  const Rig::Played p = r.play_tone(0, 2 * kRail, 2000.0, 2.0);
+  const uint32_t period_q8 = p.period_q8;
+  const Status &st = p.status;
+  const tr::Trace &t = p.trace;
 
   const tr::MotorTrace &m = t.motor[0];
   const std::vector<size_t> rev = tr::reversal_indices(m.steps);
@@ -161,13 +177,13 @@ void check_bounce_back(const std::string &board, uint32_t chatter_us) {
               "overshoot %lld, status reversals %u; worst step interval deviation %.4f %% at reversals (%.4f %% "
               "anywhere), worst 8-step mean interval change across a reversal %.4f %%\n",
               board.c_str(), chatter_us, m.steps.size(), presses, rev.size(), m.bounces.size(),
-              (long long)overshoot, st->head.reversals, deviation * 100, deviation_anywhere * 100, mean_change * 100);
+              (long long)overshoot, st.head.reversals, deviation * 100, deviation_anywhere * 100, mean_change * 100);
   INFO(board << ", chatter " << chatter_us << " us: presses/reversals in time order " << seq);
   REQUIRE(m.steps.size() > 3000);
   REQUIRE(presses >= 8);
   CHECK(rev.size() == presses);
   CHECK(seq == alternating);  // each press is followed by exactly one reversal before the next press
-  CHECK(st->head.reversals == rev.size());
+  CHECK(st.head.reversals == rev.size());
   // The firmware reads the switch once a step: a press that bounces open before the next read
   // is seen a few steps late (measured: up to 6 with 3 ms of chatter); its soft margin is 8.
   CHECK(overshoot <= 8);
@@ -304,16 +320,10 @@ TEST_CASE("safety: uno motor A (no switch) reverses at its soft limits and never
   Rig r("safety-soft-uno", "uno", {"--travel-steps", std::to_string(kRail)});
   REQUIRE(r.caps.endstops.size() == 4);
   REQUIRE(r.caps.endstops[3] == 0);  // motor A: no switch
-  r.b.send(e2e::watchdog_payload(0));
-  r.b.send(config_payload(e2e::motor_config(3, uint32_t(kRail))));
-  const uint32_t period_q8 = hz_to_period_q8(2000.0, r.caps.f_cpu_hz);
-  const uint32_t t0 = e2e::board_ticks(r.b);
-  r.b.send(e2e::tone_payload(3, period_q8));
-  e2e::wait_board_time(r.b, t0 + r.ticks(1.0));
-  r.b.send(e2e::tone_payload(3, 0));
-  const auto st = r.b.status();
-  REQUIRE(st);
-  const tr::Trace t = r.finish();
+  const Rig::Played p = r.play_tone(3, uint32_t(kRail), 2000.0, 1.0);
+  const uint32_t period_q8 = p.period_q8;
+  const Status &st = p.status;
+  const tr::Trace &t = p.trace;
 
   const tr::MotorTrace &m = t.motor[3];
   const std::vector<size_t> rev = tr::reversal_indices(m.steps);
@@ -330,7 +340,7 @@ TEST_CASE("safety: uno motor A (no switch) reverses at its soft limits and never
   CHECK(overshoot <= 1);
   CHECK(reversals_away_from_ends(m.steps, rev, kRail, 1) == 0);  // turns only at the ends
   CHECK(m.endstop_changes.empty());
-  CHECK(st->head.reversals == rev.size());
+  CHECK(st.head.reversals == rev.size());
   INFO("worst step interval deviation at a reversal: " << deviation * 100 << " % (anywhere in the note: "
                                                          << deviation_anywhere * 100 << " %)");
   CHECK(deviation <= kIntervalTolerance);

@@ -85,12 +85,6 @@ class VboardProcess {
     return true;
   }
 
-  // Stops it now (SIGKILL: a board losing power).
-  void kill_hard() {
-    if (pid_ > 0) kill(pid_, SIGKILL);
-    wait();
-  }
-
  private:
   pid_t pid_ = -1;
   int status_ = -1;

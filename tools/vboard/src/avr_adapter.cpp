@@ -218,7 +218,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
       s.was_reti = s.executed && profiler.in_isr() && is_reti(flash, s.pc_before_bytes);
       profiler.on_step(s);
     }
-    if (pc_path && (core_stopped(state) || std::getenv("STEPCHOIR_VBOARD_PCTRACE_ALWAYS"))) {
+    if (pc_path && core_stopped(state)) {
       if (FILE *f = std::fopen(pc_path, "w")) {
         for (size_t i = 0; i < 65536; ++i) {
           const auto &e = pc_ring[(pc_next + i) & 65535];
