@@ -25,11 +25,12 @@ static const uint8_t kTxRingBytes = 128;
 // A motor due within this long after the previous edge is played in the same burst (ticks =
 // CPU cycles): going back through the ISR loop and into a new burst takes about this long, so
 // it would be late otherwise (measured: 450-600 cycles with the ISR's bookkeeping in between).
+// With kRescheduleTicks it bounds a burst: (motors - 1) * kComebackTicks + kRescheduleTicks
+// must fit in the shortest period (checked in scheduler.cpp).
 static const uint16_t kComebackTicks = 700;
 
-// A burst never runs longer than this (ticks), and stops this much before a played motor's own
-// next step, which needs rescheduling first.
-static const uint16_t kMaxBurstTicks = 4000;
+// A played motor's next deadline and place in the order are worked out within this long after
+// a burst (ticks): the step ISR's bookkeeping of one step, stretched by nested UART ISRs.
 static const uint16_t kRescheduleTicks = 400;
 
 // The step ISR turns interrupts off this long before an edge and busy-waits for it, so the
@@ -37,14 +38,30 @@ static const uint16_t kRescheduleTicks = 400;
 // UART receive ISR: 67 cycles measured) plus a wait-loop pass.
 static const uint8_t kCliLeadTicks = 64;
 
-// The compare unit fires this long before a deadline: time for the ISR's prologue (run with
-// interrupts on) and a nested UART ISR, before kCliLeadTicks. 28 us.
-static const uint16_t kEarlyTicks = 450;
+// Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, but
+// never longer than this (ticks): an edge that would keep them off longer is raised at once,
+// up to kCliLeadTicks early. Three motors due within about 8 us of each other are needed for that.
+static const uint8_t kMaxOffTicks = 120;
 
-// An edge due within this long is waited for rather than starting a piece of other work: the
-// longest piece (a command, ~350 cycles) stretched by the UART's ISR nesting at full speed,
-// plus kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
+// An edge due less than this (ticks) after the previous one in a burst is raised right after
+// it, without a wait, and the previous one that much later: both within 1.6 us of their ticks,
+// where a wait between them would put the second up to 3.5 us late.
+static const uint8_t kMergeTicks = 64;
+
+// The compare unit fires this long before a deadline: time for the ISR's prologue (run with
+// interrupts on) and a nested UART ISR, before kCliLeadTicks. 37.5 us: 450 made edges late
+// under UART traffic (bench: p99 7.7 us instead of 5.3 on the Uno).
+static const uint16_t kEarlyTicks = 600;
+
+// An edge due within this long is waited for rather than starting a command from the main loop:
+// the longest (~350 cycles) stretched by the UART's ISR nesting at full speed, plus
+// kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
 static const uint16_t kSoonTicks = 1200;
+
+// An edge due within this long is waited for rather than starting a played motor's bookkeeping
+// (ticks): bookkeep_one (about 300 cycles) and the ISR's loop back into a burst (about 250),
+// stretched by nested UART ISRs, plus kCliLeadTicks.
+static const uint16_t kBookkeepTicks = 1000;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is
@@ -95,8 +112,6 @@ static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");
 static_assert(kCliLeadTicks + kPulseUsMax * 16u <= 320u, "lead + longest pulse: at most 20 us with interrupts off");
-static_assert(kRescheduleTicks + kComebackTicks < (sc::kPeriodQ8Min >> sc::kPeriodFracBits),
-              "a played motor is rescheduled before its next step");
 static_assert(kSoonTicks > kEarlyTicks + kMinLeadTicks, "an armed edge is never already soon");
 static_assert(kWakeTicks <= 32768u, "kWakeTicks: the 16-bit timer extension needs <= 32768");
 static_assert(kStartLeadTicks > kCliLeadTicks, "start lead covers the wait before an edge");

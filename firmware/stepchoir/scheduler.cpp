@@ -5,6 +5,7 @@
 #include <avr/io.h>
 #include <util/atomic.h>
 
+#include "boards/board.h"
 #include "config.h"
 #include "hal.h"
 #include "microstep.h"
@@ -53,11 +54,11 @@ struct Motor {
   uint32_t cmd_at;
 };
 
-Motor g_motor[5];
+Motor g_motor[board::active::kMotorCount];
 uint8_t g_count;
-Motor *g_order[5];             // sounding motors not yet played, earliest deadline first
+Motor *g_order[board::active::kMotorCount];            // sounding motors not yet played, earliest deadline first
 volatile uint8_t g_active;     // how many of g_order are valid
-Motor *g_played[5];            // motors stepped by a burst, waiting for their next deadline
+Motor *g_played[board::active::kMotorCount];           // motors stepped by a burst, waiting for their next deadline
 uint8_t g_played_count;
 volatile uint8_t g_cmd_mask;   // bit m: motor m has a command in its mailbox
 uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 32768 ticks)
@@ -67,7 +68,8 @@ volatile uint8_t g_motor_fault;
 // Between two ISR invocations g_played and (unless the main loop just posted)
 // g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
-const uint16_t kLateTicks = 32;  // an edge raised more than 2 us after its deadline is late
+const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
+const uint8_t kRaiseTicks = 14;  // burst(): from one raise to a merged next one (measured in simavr)
 
 // Called from: step ISR. Inserts motor m by deadline.
 void order_insert(Motor *m) {
@@ -93,50 +95,92 @@ void order_remove(Motor *m) {
 // Called from: step ISR and main loop, interrupts off. Current board time in ticks.
 inline uint32_t now_locked() { return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed); }
 
+// A burst never runs into a played motor's own next step: it chains at most one edge of each
+// motor, each due within kComebackTicks of the one before, and the shortest period leaves
+// kRescheduleTicks after that.
+static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRescheduleTicks <=
+                  (sc::kPeriodQ8Min >> sc::kPeriodFracBits),
+              "a burst of every motor ends, and its motors are rescheduled, before the first one's next step");
+
 // Called from: step ISR, interrupts on, the head due within kSoonTicks. Raises the head, then
 // every next motor due within kComebackTicks of the previous edge (the ISR could not come back
-// for it in time), each on its own tick, lowering each STEP once its pulse has passed.
-// Interrupts are off only from kCliLeadTicks before each raise until it is done. The burst
-// stops before any played motor's own next step could be late. Played motors move from
+// for it in time), lowering each STEP once its pulse has passed. Played motors move from
 // g_order to g_played.
-// Cycles with interrupts off: kCliLeadTicks + about 40 per raise.
+//
+// How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
+// port and mask are loaded before its wait, so between two raises only a tick compare and the
+// port write remain (about 45 cycles). An edge due less than kMergeTicks after the previous one
+// is raised right after it, without a wait, and the previous one waits half the gap longer. Interrupts are off from kCliLeadTicks before a
+// raise until it is done, and stay off into the next raise when that one is closer than
+// kCliLeadTicks, unless they have been off kMaxOffTicks already: then that edge is raised at
+// once, a little early, so the UART is never kept waiting.
+// Cycles with interrupts off: at most kMaxOffTicks + one raise (about 45).
 __attribute__((noinline)) void burst() {
   const uint8_t active = g_active;
-  uint16_t raised_at[5];
-  uint8_t n = 0, low = 0;
-  Motor *m = g_order[0];
-  uint32_t deadline = m->deadline;
-  uint32_t horizon = deadline + cfg::kMaxBurstTicks;
-  for (;;) {
-    const uint16_t t = (uint16_t)deadline;
-    while ((int16_t)(t - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-      if (low < n && (uint16_t)(TCNT1 - raised_at[low]) >= g_order[low]->pulse_ticks) {
-        *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop and
-        ++low;                                                            // nested ISRs keep off
+  uint8_t n = 1;
+  for (uint32_t last = g_order[0]->deadline; n < active; ++n) {
+    const uint32_t d = g_order[n]->deadline;
+    if (d - last > cfg::kComebackTicks) break;  // the order is sorted: d - last >= 0
+    last = d;
+  }
+  uint16_t raised[board::active::kMotorCount];
+  uint8_t low = 0;
+  uint16_t off_since = 0, prev = 0;
+  bool off = false;
+  for (uint8_t i = 0; i < n; ++i) {
+    if (off && (uint16_t)(TCNT1 - off_since) > cfg::kMaxOffTicks) {  // let a waiting UART byte in
+      sei();
+      __asm__ __volatile__("nop");
+      cli();
+      off_since = TCNT1;
+    }
+    Motor *m = g_order[i];
+    const uint16_t t = (uint16_t)m->deadline;
+    volatile uint8_t *const port = m->step_port;
+    const uint8_t mask = m->step_mask;
+    if (i == 0 || (uint16_t)(t - prev) >= cfg::kMergeTicks) {
+      prev = t;
+      // With the next edge close behind, raise this one a little late and that one right after
+      // it, splitting the error between the two.
+      uint16_t at = t;
+      if (i + 1 < n) {
+        const uint16_t gap = (uint16_t)((uint16_t)g_order[i + 1]->deadline - t);
+        if (gap < cfg::kMergeTicks && gap > kRaiseTicks) at = (uint16_t)(t + ((gap - kRaiseTicks) >> 1));
       }
+      if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+        sei();
+        off = false;
+        while ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+          if (low < i && (uint16_t)(TCNT1 - raised[low]) >= g_order[low]->pulse_ticks) {
+            *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop
+            ++low;                                                            // and nested ISRs keep off
+          }
+        }
+      }
+      if (!off) {
+        cli();
+        off = true;
+        off_since = TCNT1;
+      }
+      if ((int16_t)(at - off_since) <= (int16_t)cfg::kMaxOffTicks)
+        while ((int16_t)(at - TCNT1) > 0) {
+        }
     }
-    cli();
-    while ((int16_t)(t - TCNT1) > 0) {
-    }
-    *m->step_port |= m->step_mask;
-    if ((uint16_t)(TCNT1 - t) > kLateTicks) g_late_edges = (uint16_t)(g_late_edges + 1);
-    sei();
-    raised_at[n++] = t;
-    const uint32_t own_next = deadline + (m->period_q8 >> 8) - cfg::kRescheduleTicks;
-    if ((int32_t)(own_next - horizon) < 0) horizon = own_next;
-    if (n == active) break;
-    m = g_order[n];
-    const uint32_t next = m->deadline;
-    if ((int32_t)(next - horizon) > 0 || (int32_t)(next - deadline) > (int32_t)cfg::kComebackTicks) break;
-    deadline = next;
+    *port |= mask;
+    raised[i] = TCNT1;
   }
-  while (low < n) {
-    while ((uint16_t)(TCNT1 - raised_at[low]) < g_order[low]->pulse_ticks) {
+  sei();
+  for (; low < n; ++low) {
+    Motor *p = g_order[low];
+    while ((uint16_t)(TCNT1 - raised[low]) < p->pulse_ticks) {
     }
-    *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;
-    ++low;
+    *p->step_port &= (uint8_t)~p->step_mask;
   }
-  for (uint8_t i = 0; i < n; ++i) g_played[g_played_count++] = g_order[i];
+  for (uint8_t i = 0; i < n; ++i) {
+    if ((int16_t)(raised[i] - (uint16_t)g_order[i]->deadline) > (int16_t)kLateTicks)
+      g_late_edges = (uint16_t)(g_late_edges + 1);
+    g_played[g_played_count++] = g_order[i];
+  }
   for (uint8_t i = n; i < active; ++i) g_order[i - n] = g_order[i];
   g_active = (uint8_t)(active - n);
 }
@@ -447,13 +491,15 @@ void silence_all() {
 // Step ISR. Who: Timer1 compare A, kEarlyTicks before each deadline, every 2 ms to extend the
 // timer, or kMinLeadTicks after the main loop posted a command. It masks itself and runs with
 // interrupts on (the UART nests freely) except from kCliLeadTicks before each edge until it
-// is raised. Work comes in small pieces (one motor's rescheduling, one step's bookkeeping, one
-// command), each started only when no edge is due within kSoonTicks. It returns when nothing
-// is left to do and the next edge is far enough to come back for it.
+// is raised. Work comes in small pieces (one motor's rescheduling and step bookkeeping, one
+// command), each started only when no edge is due within kBookkeepTicks / kSoonTicks: a played
+// motor first, as its own next edge may follow soon. It returns when nothing is left to do and
+// the next edge is far enough to come back for it.
 // Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most ~100 cycles here (227 anywhere, at boot); one invocation up to 13,736
-// cycles (uno) / 26,302 (mega) with interrupts on, while four or five motors play; CPU load
-// 34 % (uno) / 44 % (mega) with every motor sounding; about 1,000 cycles of work an edge.
+// interrupts off at most 265 cycles (16.6 us, in burst()); one invocation up to 9,901 cycles
+// (uno) / 10,946 (mega) with interrupts on, while four or five motors play; CPU load 33 % (uno)
+// / 42 % (mega) with every motor sounding: about 1,500 cycles an edge, a third of them spent
+// waiting for the edge with interrupts on.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
@@ -466,13 +512,15 @@ ISR(TIMER1_COMPA_vect) {
     // returns as soon as the work is done, leaving the main loop kMainSliceTicks. Edges are then
     // late, but frames, stop-all and the watchdog keep working.
     const bool overdue = (uint16_t)(TCNT1 - entered) > cfg::kMaxIsrTicks;
-    const bool pending = g_played_count || g_cmd_mask;
-    if (g_active) {
-      // Wait for the edge when it is too close to return and come back for it, or when there
-      // is work left that might not fit before it.
+    if (g_active && !overdue) {
+      // Wait for the edge when the next piece of work might not fit before it, or, with no
+      // work left, when it is too close to return and come back for it. A played motor's
+      // bookkeeping comes first whenever it fits: its own next edge may follow soon.
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      if (!overdue && (ahead <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks) ||
-                       (pending && ahead <= (int32_t)cfg::kSoonTicks))) {
+      const uint16_t wait_within = g_played_count ? cfg::kBookkeepTicks
+                                   : g_cmd_mask   ? cfg::kSoonTicks
+                                                  : cfg::kEarlyTicks + cfg::kMinLeadTicks;
+      if (ahead <= (int32_t)wait_within) {
         burst();
         continue;
       }

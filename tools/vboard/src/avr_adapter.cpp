@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 #include <cstring>
+#include <cstdlib>
 
 extern "C" {
 #include <simavr/avr_extint.h>
@@ -190,6 +191,28 @@ void AvrAdapter::set_end_cycle(uint64_t end_cycle) {
     avr_cycle_timer_register(avr_, end_cycle_ - avr_->cycle, &AvrAdapter::on_end_timer, this);
 }
 
+namespace {
+// Cycles spent at each flash address, written at exit (see STEPCHOIR_VBOARD_PCPROFILE).
+struct PcProfile {
+  std::string path;
+  std::vector<uint64_t> cycles;
+  // Called from: run_until, once. Empty path: counts nothing.
+  PcProfile(const char *p, size_t flash_bytes) : path(p ? p : ""), cycles(p ? flash_bytes : 0) {}
+  // Called from: run_until, every step.
+  void add(uint32_t pc_bytes, uint64_t n) {
+    if (pc_bytes < cycles.size()) cycles[pc_bytes] += n;
+  }
+  ~PcProfile() {
+    if (path.empty()) return;
+    if (FILE *f = std::fopen(path.c_str(), "w")) {
+      for (size_t a = 0; a < cycles.size(); ++a)
+        if (cycles[a]) std::fprintf(f, "%zx %llu\n", a, static_cast<unsigned long long>(cycles[a]));
+      std::fclose(f);
+    }
+  }
+};
+}  // namespace
+
 // Runs until cycle >= end_cycle or the core stops. With a profiler, every step is sampled.
 CoreState AvrAdapter::run_until(uint64_t end_cycle) {
   avr_t *const avr = avr_;
@@ -205,6 +228,10 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     static const char *pc_path = std::getenv("STEPCHOIR_VBOARD_PCTRACE");
     static std::vector<std::array<uint32_t, 3>> pc_ring(pc_path ? 65536 : 0);
     static size_t pc_next = 0;
+    // Debugging aid: STEPCHOIR_VBOARD_PCPROFILE=PATH counts the cycles spent at each flash
+    // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit; map them
+    // to functions with avr-addr2line or avr-objdump -d.
+    static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     while (avr->cycle < end_cycle && !core_stopped(state)) {
       if (pc_path) pc_ring[pc_next++ & 65535] = {(uint32_t)avr->cycle, avr->pc, avr->sreg[S_I]};
       s.pc_before_bytes = avr->pc;
@@ -217,6 +244,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
       s.i_after = avr->sreg[S_I] != 0;
       s.was_reti = s.executed && profiler.in_isr() && is_reti(flash, s.pc_before_bytes);
       profiler.on_step(s);
+      pc_profile.add(s.pc_before_bytes, s.cycle_after - s.cycle_before);
     }
     if (pc_path && core_stopped(state)) {
       if (FILE *f = std::fopen(pc_path, "w")) {
