@@ -27,7 +27,7 @@ void Commands::on_byte(uint8_t byte) {
     return;
   }
   ++frames_ok_;
-  last_frame_ticks_ = hal::now_ticks();
+  frame_seen_ = true;  // poll() restarts the watchdog from its own clock reading
   // The watchdog flag stays up for the status replies until music is sent again.
   if ((type & kSetPeriodFlag) || type == kMsgAt || type == kMsgResetCounters) watchdog_tripped_ = false;
 }
@@ -160,8 +160,16 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
   return rc;
 }
 
+void Commands::on_bytes(const uint8_t *bytes, uint8_t n) {
+  for (uint8_t i = 0; i < n; ++i) on_byte(bytes[i]);
+}
+
 void Commands::poll() {
   const uint32_t now = hal::now_ticks();
+  if (frame_seen_) {
+    frame_seen_ = false;
+    last_frame_ticks_ = now;
+  }
   const uint16_t overruns = hal::uart_overruns();
   if (overruns != seen_overruns_) {
     seen_overruns_ = overruns;

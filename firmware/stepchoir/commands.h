@@ -32,6 +32,9 @@ class Commands {
   // Called from: main loop, for each byte received. Decodes frames and runs their handlers.
   void on_byte(uint8_t byte);
 
+  // Called from: main loop. Feeds n received bytes, in order (on_byte for each).
+  void on_bytes(const uint8_t *bytes, uint8_t n);
+
   // Called from: main loop, often. Starts due timestamped entries, runs the watchdog.
   void poll();
 
@@ -65,6 +68,7 @@ class Commands {
   uint16_t frames_bad_ = 0;
   uint8_t last_error_ = 0;
   uint32_t last_frame_ticks_ = 0;
+  bool frame_seen_ = false;  // a good frame since the last poll(): it restarts the watchdog
   uint32_t watchdog_ticks_ = 0;  // 0 = off
   bool watchdog_tripped_ = false;
   uint16_t seen_overruns_ = 0;  // UART overrun count last looked at

@@ -105,11 +105,15 @@ void begin() {
   UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
 
-bool read(uint8_t *byte) {
-  if (g_rx_head == g_rx_tail) return false;
-  *byte = g_rx[g_rx_tail];
-  g_rx_tail = (uint8_t)((g_rx_tail + 1) & kRxMask);
-  return true;
+uint8_t read_some(uint8_t *out, uint8_t max) {
+  const uint8_t head = g_rx_head;  // the receive ISR only moves head
+  uint8_t tail = g_rx_tail, n = 0;
+  while (tail != head && n < max) {
+    out[n++] = g_rx[tail];
+    tail = (uint8_t)((tail + 1) & kRxMask);
+  }
+  g_rx_tail = tail;
+  return n;
 }
 
 }  // namespace link

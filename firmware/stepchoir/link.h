@@ -10,8 +10,8 @@ namespace link {
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
 
-// Called from: main loop. Takes one received byte; false when the ring is empty.
-bool read(uint8_t *byte);
+// Called from: main loop. Takes up to max received bytes into out; returns how many.
+uint8_t read_some(uint8_t *out, uint8_t max);
 
 }  // namespace link
 

@@ -16,8 +16,8 @@ void setup() {
 
 // Main loop: drain the UART into the frame decoder, start due timestamped notes, watchdog.
 void loop() {
-  uint8_t byte;
-  for (uint8_t i = 0; i < 32 && link::read(&byte); ++i) g_commands.on_byte(byte);
+  uint8_t bytes[32];
+  g_commands.on_bytes(bytes, link::read_some(bytes, sizeof bytes));
   g_commands.poll();
   sched::rescue_missed_compare();
 }

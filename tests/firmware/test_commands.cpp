@@ -177,6 +177,7 @@ TEST_CASE("watchdog stops everything once when frames stop - and re-arms when mu
   std::vector<uint8_t> p(4);
   sc::put_entry(&p[0], 0, 9309091);
   feed(c, wire(p));
+  c.poll();  // the main loop polls after every batch of bytes: the frame's time is taken there
   const uint32_t timeout = cmd::ms_to_ticks(cfg::kWatchdogDefaultMs, F_CPU);
   g_hal.now += timeout - 10;
   c.poll();
@@ -193,6 +194,7 @@ TEST_CASE("watchdog stops everything once when frames stop - and re-arms when mu
   CHECK(c.watchdog_tripped());  // still reported to a status request after the stop
   feed(c, wire(p));
   CHECK_FALSE(c.watchdog_tripped());
+  c.poll();
   g_hal.now += timeout + 10;
   c.poll();
   CHECK(c.watchdog_tripped());  // armed again
@@ -209,6 +211,7 @@ TEST_CASE("watchdog timeout is settable and 0 turns it off") {
   c.poll();
   CHECK_FALSE(c.watchdog_tripped());
   feed(c, wire({sc::kMsgWatchdog, 50, 0}));  // 50 ms
+  c.poll();
   g_hal.now += cmd::ms_to_ticks(51, F_CPU);
   c.poll();
   CHECK(c.watchdog_tripped());
