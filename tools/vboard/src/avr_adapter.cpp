@@ -9,6 +9,8 @@
 #include <cstring>
 #include <cstdlib>
 
+#include <unistd.h>
+
 extern "C" {
 #include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
@@ -204,6 +206,8 @@ struct PcProfile {
   }
   ~PcProfile() {
     if (path.empty()) return;
+    const size_t pid_at = path.find("%p");  // one file per process when several run
+    if (pid_at != std::string::npos) path.replace(pid_at, 2, std::to_string(getpid()));
     if (FILE *f = std::fopen(path.c_str(), "w")) {
       for (size_t a = 0; a < cycles.size(); ++a)
         if (cycles[a]) std::fprintf(f, "%zx %llu\n", a, static_cast<unsigned long long>(cycles[a]));
@@ -229,7 +233,8 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     static std::vector<std::array<uint32_t, 3>> pc_ring(pc_path ? 65536 : 0);
     static size_t pc_next = 0;
     // Debugging aid: STEPCHOIR_VBOARD_PCPROFILE=PATH counts the cycles spent at each flash
-    // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit; map them
+    // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit ("%p" in
+    // PATH becomes the process id); map them
     // to functions with avr-addr2line or avr-objdump -d.
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     while (avr->cycle < end_cycle && !core_stopped(state)) {

@@ -1,0 +1,110 @@
+// test_link.cpp: the link budget. A host that keeps what it sends under
+// sc::kLinkBudgetBytesPerSecond loses no frame, even with every motor playing fast, and the
+// motors stay in tune meanwhile (real firmware on the virtual board).
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "analysis.h"
+#include "e2e_more.h"
+#include "e2e_util.h"
+#include "pitch.h"
+#include "trace.h"
+
+using namespace stepchoir;
+namespace tr = sc::trace;
+
+namespace {
+
+// Plays a chord on every motor, then for `seconds` of board time sends each motor's period
+// again and a heartbeat, round after round, at `bytes_per_second`; checks that the board
+// decoded every frame and that every motor kept its pitch and timing.
+void check_budget(const std::string &board, double bytes_per_second, double seconds) {
+  const std::string trace_path = e2e::scratch("link-budget-" + board + ".csv");
+  e2e::StoppableVboard vb({"--board", board, "--no-pacing", "--seconds", "60", "--trace", trace_path, "--quiet"});
+  Board b(open_link(vb.pty()));
+  const Caps caps = b.hello();
+  b.send(e2e::watchdog_payload(0));  // unpaced, a pause of the host must not silence the board
+  // High notes, about 7,000 steps a second in all on five motors (5,500 on four).
+  const int notes[] = {88, 90, 86, 83, 81};
+  std::vector<sc::PeriodEntry> chord;
+  std::vector<std::vector<uint8_t>> round;
+  for (uint8_t m = 0; m < caps.motor_count; ++m) {
+    chord.push_back({m, hz_to_period_q8(note_hz(notes[m]), caps.f_cpu_hz)});
+    b.send(config_payload(e2e::motor_config(m, 100000)));
+    round.push_back(e2e::tone_payload(m, chord.back().period_q8));
+  }
+  round.push_back({sc::kMsgHeartbeat});
+  size_t round_bytes = 0;
+  for (const auto &p : round) round_bytes += frame(p).size();
+  b.send(periods_payload(chord));
+  b.send({sc::kMsgResetCounters});
+  const uint32_t from = e2e::board_ticks(b, 0x31) + e2e::ticks_for(0.05, caps.f_cpu_hz);
+
+  // Paced by the board's own clock (a clock request a round), so that a slow or busy host
+  // machine cannot bunch the bytes up: the simulation runs unpaced.
+  // A token bucket: credit grows at bytes_per_second of board time, up to the burst the budget
+  // allows, and each round spends its bytes.
+  const double burst_bytes = sc::kLinkBurstBytes;
+  size_t frames = 0, bytes = 0, clock_requests = 0;
+  double credit = 0;
+  uint32_t last = from;
+  const uint32_t until = from + e2e::ticks_for(seconds, caps.f_cpu_hz);
+  for (uint8_t seq = 0x40;; ++seq) {
+    const uint32_t now = e2e::board_ticks(b, seq);
+    ++clock_requests;
+    if (static_cast<int32_t>(now - until) >= 0) break;
+    if (static_cast<int32_t>(now - last) > 0) {
+      credit = std::min(burst_bytes, credit + (now - last) / double(caps.f_cpu_hz) * bytes_per_second);
+      last = now;
+    }
+    while (credit >= round_bytes) {
+      e2e::send_back_to_back(b, round);
+      frames += round.size();
+      bytes += round_bytes;
+      credit -= round_bytes;
+    }
+  }
+  const uint32_t to = e2e::board_ticks(b, 0x32);
+  const auto st = b.status(2000);
+  REQUIRE(st);
+  b.send({sc::kMsgStopAll});
+  REQUIRE(vb.stop() == 0);
+  std::printf("link budget %s: %.0f bytes/s, %zu frames sent (%zu bytes), frames ok %u bad %u, uart overruns %u, "
+              "late edges %u\n",
+              board.c_str(), bytes_per_second, frames, bytes, st->head.frames_ok, st->head.frames_bad,
+              st->head.uart_overruns, st->head.late_edges);
+  // the budget was used, not just allowed (clock round trips leave a little of it unused)
+  CHECK(bytes >= 0.75 * bytes_per_second * seconds);
+  CHECK(st->head.frames_bad == 0);
+  CHECK(st->head.uart_overruns == 0);
+  // every frame sent after the counters were reset, the clock requests and the status request
+  CHECK(st->head.frames_ok == frames + clock_requests + 3);
+
+  const tr::Trace t = tr::read_trace(trace_path);
+  for (uint8_t m = 0; m < caps.motor_count; ++m) {
+    const auto edges = tr::rise_cycles_in_window(t.motor[m].steps, from, to);
+    INFO(board << " motor " << int(m) << ": " << edges.size() << " edges");
+    REQUIRE(edges.size() > 1000);
+    const tr::PitchFit f = tr::fit_edges(edges, chord[m].period_q8 / 256.0, t.f_cpu_hz);
+    INFO("cents " << f.cents_error << " p99 " << f.residual_p99_us << " us, max " << f.residual_max_us << " us");
+    CHECK(std::abs(f.cents_error) < 0.05);
+    CHECK(f.residual_p99_us < 25.0);  // the envelope with live traffic (test_pitch.cpp)
+  }
+}
+
+}  // namespace
+
+TEST_CASE("link: mega decodes every frame at the link budget while five motors play fast") {
+  const char *rate = std::getenv("STEPCHOIR_LINK_RATE");  // for measuring other rates by hand
+  check_budget("mega", rate ? std::atof(rate) : sc::kLinkBudgetBytesPerSecond, 3.0);
+}
+
+TEST_CASE("link: uno decodes every frame at the link budget while four motors play fast") {
+  const char *rate = std::getenv("STEPCHOIR_LINK_RATE");
+  check_budget("uno", rate ? std::atof(rate) : sc::kLinkBudgetBytesPerSecond, 3.0);
+}
