@@ -273,7 +273,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
 
 // Starts feeding received host bytes to UART0, one per byte time.
 void AvrAdapter::kick_rx() {
-  if (rx_timer_armed_ || xoff_ || !link_.rx_pending()) return;
+  if (rx_timer_armed_ || xoff_ || (repeat_byte_ < 0 && !link_.rx_pending())) return;
   const uint64_t now = avr_->cycle;
   const uint64_t delay_cycles = next_rx_cycle_ > now ? next_rx_cycle_ - now : 1;
   avr_cycle_timer_register(avr_, delay_cycles, &AvrAdapter::on_rx_timer, this);
@@ -415,24 +415,37 @@ void AvrAdapter::on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param) {
 uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
   (void)when;
   AvrAdapter *self = static_cast<AvrAdapter *>(param);
-  if (self->xoff_ || !self->link_.rx_pending()) {
+  if (self->xoff_ || (self->repeat_byte_ < 0 && !self->link_.rx_pending())) {
     self->rx_timer_armed_ = false;  // XON (or the next poll) restarts it
     return 0;
   }
   const avr_uart_t *uart = static_cast<const avr_uart_t *>(self->uart_);
-  const uint8_t byte = self->link_.rx_pop();
-  if (avr_regbit_get(avr, uart->rxen)) {
+  uint8_t byte;
+  bool deliver = true;
+  if (self->repeat_byte_ >= 0) {  // the second copy of a duplicated byte
+    byte = static_cast<uint8_t>(self->repeat_byte_);
+    self->repeat_byte_ = -1;
+  } else {
+    byte = self->link_.rx_pop();
+    if (self->noise_) {
+      const LineOutcome o = self->noise_->pass(byte);
+      byte = o.byte;
+      deliver = o.count > 0;  // a lost byte still takes its time on the line
+      if (o.count == 2) self->repeat_byte_ = byte;
+    }
+  }
+  if (deliver && avr_regbit_get(avr, uart->rxen)) {
     const unsigned unread_bytes =
         static_cast<unsigned>(uart->input.write - uart->input.read) & (uart_fifo_fifo_size - 1);
     if (unread_bytes >= 3) ++self->uart_would_overrun_;
     self->fix_uart_timing();
     avr_raise_irq(self->uart_input_irq_, byte);
     ++self->uart_in_bytes_;
-  } else {
+  } else if (deliver) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
   }
   self->next_rx_cycle_ = avr->cycle + self->uart_byte_cycles();
-  if (self->xoff_ || !self->link_.rx_pending()) {
+  if (self->xoff_ || (self->repeat_byte_ < 0 && !self->link_.rx_pending())) {
     self->rx_timer_armed_ = false;
     return 0;
   }

@@ -9,6 +9,7 @@
 
 #include "board_config.h"
 #include "cpu_profiler.h"
+#include "line_noise.h"
 #include "pty_link.h"
 #include "virtual_board.h"
 
@@ -36,6 +37,8 @@ class AvrAdapter : public SwitchPinDriver {
   bool load(const std::string &elf_path, std::string &error);
   // Feeds every step to profiler (nullptr = no per-instruction accounting).
   void set_profiler(CpuProfiler *profiler) { profiler_ = profiler; }
+  // Applies faults to every host byte (nullptr = a clean line). Must outlive the adapter.
+  void set_line_noise(LineNoise *noise) { noise_ = noise; }
 
   // Flash size in bytes.
   uint32_t flash_bytes() const;
@@ -104,6 +107,8 @@ class AvrAdapter : public SwitchPinDriver {
   VirtualBoard &model_;
   PtyLink &link_;
   CpuProfiler *profiler_ = nullptr;
+  LineNoise *noise_ = nullptr;
+  int repeat_byte_ = -1;  // a duplicated host byte still to deliver, or -1
   avr_t *avr_ = nullptr;
   void *uart_ = nullptr;  // avr_uart_t of UART0
   avr_irq_t *uart_input_irq_ = nullptr;

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "avr_adapter.h"
+#include "line_noise.h"
 #include "board_config.h"
 #include "cpu_profiler.h"
 #include "elf_symbols.h"
@@ -152,7 +153,7 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
 
 // Collects the run-level numbers for the summary.
 RunFacts gather_facts(const Options &options, const BoardConfig &board, const AvrAdapter &avr,
-                      const PtyLink &link, const LoopResult &result) {
+                      const PtyLink &link, const LineNoise &noise, const LoopResult &result) {
   RunFacts facts;
   facts.end_reason = result.state == CoreState::kCrashed ? "crashed"
                      : result.state == CoreState::kDone  ? "done"
@@ -175,6 +176,9 @@ RunFacts gather_facts(const Options &options, const BoardConfig &board, const Av
   facts.uart_out_bytes = avr.uart_out_bytes();
   facts.uart_dropped = link.tx_dropped();
   facts.host_bytes = link.rx_bytes();
+  facts.line_dropped = noise.dropped();
+  facts.line_corrupted = noise.corrupted();
+  facts.line_duplicated = noise.duplicated();
   return facts;
 }
 
@@ -229,6 +233,12 @@ int run(const Options &options, FILE *real_stdout) {
   }
   AvrAdapter avr(board, model, link);
   model.set_driver(&avr);
+  LineNoiseRates rates;
+  rates.drop = options.line_drop;
+  rates.corrupt = options.line_corrupt;
+  rates.duplicate = options.line_duplicate;
+  LineNoise noise(rates, options.seed);
+  avr.set_line_noise(&noise);
   if (!avr.load(elf_path, error)) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;
@@ -253,7 +263,7 @@ int run(const Options &options, FILE *real_stdout) {
   const LoopResult result = simulate(options, board, avr, link, trace);
 
   if (profiler) profiler->finish(avr.cycle(), avr.interrupts_enabled());
-  const RunFacts facts = gather_facts(options, board, avr, link, result);
+  const RunFacts facts = gather_facts(options, board, avr, link, noise, result);
   const std::vector<std::string> summary = summary_lines(facts, model, profiler.get(), symbols);
   trace.comment("end cycle=" + std::to_string(facts.end_cycle));
   for (const std::string &line : summary) trace.comment("summary " + line);

@@ -38,7 +38,8 @@ const char *usage_text() {
   return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
          "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
-         "          [--seed N] [--no-measure] [--quiet]\n"
+         "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
+         "          [--no-measure] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
          "  --link PATH         symlink to the pty, removed on exit\n"
@@ -50,7 +51,10 @@ const char *usage_text() {
          "  --switch-active L   level of a pressed end switch (default low)\n"
          "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
          "  --stuck-switch M    the switches of motor M read pressed all the time (a fault)\n"
-         "  --seed N            seed for the bounce pattern (default 1)\n"
+         "  --seed N            seed for the bounce pattern and line noise (default 1)\n"
+         "  --line-drop P       line noise: each host byte is lost with probability P (0-0.5)\n"
+         "  --line-corrupt P    ... has one or more bits flipped with probability P\n"
+         "  --line-duplicate P  ... arrives twice with probability P\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --quiet             no summary on stderr\n";
 }
@@ -141,6 +145,15 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         return false;
       }
       options.seed = static_cast<uint64_t>(seed);
+    } else if (arg == "--line-drop" || arg == "--line-corrupt" || arg == "--line-duplicate") {
+      double rate = 0;
+      if (!value_of(value)) return false;
+      if (!parse_real(value, rate) || rate < 0 || rate > 0.5) {
+        error = arg + " needs a probability per byte between 0 and 0.5";
+        return false;
+      }
+      (arg == "--line-drop" ? options.line_drop : arg == "--line-corrupt" ? options.line_corrupt
+                                                                         : options.line_duplicate) = rate;
     } else if (arg == "--quiet") {
       options.quiet = true;
     } else if (arg == "--no-measure") {

@@ -53,7 +53,9 @@ std::vector<std::string> summary_lines(const RunFacts &facts, const VirtualBoard
   std::ostringstream uart;
   uart << "uart_in=" << facts.uart_in_bytes << " uart_out=" << facts.uart_out_bytes
        << " uart_dropped=" << facts.uart_dropped << " uart_in_lost=" << facts.uart_in_lost
-       << " uart_xoff=" << facts.uart_xoff_count << " uart_would_overrun=" << facts.uart_would_overrun << " host_bytes=" << facts.host_bytes;
+       << " uart_xoff=" << facts.uart_xoff_count << " uart_would_overrun=" << facts.uart_would_overrun
+       << " host_bytes=" << facts.host_bytes << " line_dropped=" << facts.line_dropped
+       << " line_corrupted=" << facts.line_corrupted << " line_duplicated=" << facts.line_duplicated;
   lines.push_back(uart.str());
   std::ostringstream run;
   run << "end=" << facts.end_reason << " sim_seconds=" << fixed(sim_seconds, 6)

@@ -32,6 +32,7 @@ struct RunFacts {
   uint64_t uart_out_bytes = 0;
   uint64_t uart_dropped = 0;
   uint64_t host_bytes = 0;
+  uint64_t line_dropped = 0, line_corrupted = 0, line_duplicated = 0;  // --line-* faults made
 };
 
 // Summary lines (without the "# summary " prefix). profiler may be null (--no-measure).

@@ -2,6 +2,7 @@
 #define CATCH_CONFIG_MAIN
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "carriage.h"
 #include "cpu_profiler.h"
 #include "endstop_switch.h"
+#include "line_noise.h"
 #include "pacer.h"
 #include "trace_writer.h"
 #include "virtual_board.h"
@@ -241,4 +243,35 @@ TEST_CASE("virtual board starts with a touched switch pressed") {
     CHECK(input.contact.pressed() == is_min);
     CHECK(input.contact.pin_level() == is_min);  // active high
   }
+}
+
+TEST_CASE("line noise: no rates pass every byte once; rates give about their share, reproducibly") {
+  LineNoise clean({}, 1);
+  for (int b = 0; b < 256; ++b) {
+    const LineOutcome o = clean.pass(static_cast<uint8_t>(b));
+    CHECK(o.byte == b);
+    CHECK(o.count == 1);
+  }
+  LineNoiseRates rates;
+  rates.drop = 0.01;
+  rates.corrupt = 0.02;
+  rates.duplicate = 0.03;
+  LineNoise a(rates, 7), b(rates, 7);
+  const int n = 100000;
+  int changed = 0, dropped = 0, doubled = 0;
+  for (int i = 0; i < n; ++i) {
+    const uint8_t in = static_cast<uint8_t>(i * 37);
+    const LineOutcome x = a.pass(in), y = b.pass(in);
+    CHECK(x.byte == y.byte);  // same seed, same faults
+    CHECK(x.count == y.count);
+    changed += x.byte != in;
+    dropped += x.count == 0;
+    doubled += x.count == 2;
+  }
+  CHECK(changed == static_cast<int>(a.corrupted()));  // a corrupted byte always differs
+  CHECK(dropped == static_cast<int>(a.dropped()));
+  CHECK(doubled == static_cast<int>(a.duplicated()));
+  CHECK(std::abs(dropped - 0.01 * n) < 0.002 * n);
+  CHECK(std::abs(changed - 0.02 * n) < 0.002 * n);
+  CHECK(std::abs(doubled - 0.03 * n) < 0.002 * n);
 }
