@@ -15,20 +15,6 @@ constexpr double kMaxBeats = 10000.0;
 constexpr double kMinBpm = 1.0;
 constexpr double kMaxBpm = 10000.0;
 
-// Splits a line (comment already removed) into whitespace-separated words. Called by read_sng.
-std::vector<std::string_view> words_of(std::string_view line) {
-  std::vector<std::string_view> out;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    size_t j = i;
-    while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
-    if (j > i) out.push_back(line.substr(i, j - i));
-    i = j;
-  }
-  return out;
-}
-
 // Parses a plain decimal number "12" or "1.5" (digits before the point required, no sign, no
 // exponent). Called by read_sng for beats and tempo.
 std::optional<double> decimal_of(std::string_view w) {
@@ -197,7 +183,7 @@ Song read_sng(std::string_view text, const std::string &name) {
     ++p.line_no;
     if (line.find('\0') != std::string_view::npos) p.fail("NUL byte: this is not a text song file");
     line = line.substr(0, line.find('%'));
-    const auto w = words_of(line);
+    const auto w = split_words(line);
     if (!w.empty()) p.line(w);
   }
   if (p.in_block) {

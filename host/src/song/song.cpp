@@ -1,4 +1,4 @@
-// song.cpp: song file loading (format by content) and the readers' common last step.
+// song.cpp: song file loading (format by content), the readers' common last step, word splitting.
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -8,6 +8,18 @@
 #include "song.h"
 
 namespace stepchoir {
+
+std::vector<std::string_view> split_words(std::string_view line) {
+  std::vector<std::string_view> out;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    const size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
+    if (i > start) out.push_back(line.substr(start, i - start));
+  }
+  return out;
+}
 
 void finish_song(Song &song, double end_s) {
   std::sort(song.notes.begin(), song.notes.end(), [](const SongNote &a, const SongNote &b) {

@@ -60,6 +60,10 @@ Song read_song_file(const std::string &path);
 // note's end. Called by the readers.
 void finish_song(Song &song, double end_s);
 
+// Splits a line into its words (separated by spaces, tabs, CR). Called by the .sng reader and
+// the printer preset reader.
+std::vector<std::string_view> split_words(std::string_view line);
+
 }  // namespace stepchoir
 
 #endif  // STEPCHOIR_HOST_SONG_SONG_H
