@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "../fuzz/fuzz_plan.h"
 #include "gcode_check.h"
 #include "smf_builder.h"
 #include "song/gcode.h"
@@ -174,6 +175,12 @@ TEST_CASE("gcode: defect fixed: a move longer than the axis bounces until it end
   CHECK(travelled == Approx(note_hz(81) * 2 / 80 * 60).epsilon(1e-6));
 }
 
+TEST_CASE("gcode: a song that would need more moves than the bound is refused before any is made") {
+  // A day of A5 on a 5 mm axis: 22 mm/s x 86400 s / 5 mm = 380,000 reversals fit; ten days do not.
+  CHECK(plan_error(song_of({{0, 0, 86400, 81}}), box(5, 5, 5)).empty());
+  CHECK(plan_error(song_of({{0, 0, 864000, 81}}), box(5, 5, 5)).find("the song would take some 38") == 0);
+}
+
 TEST_CASE("gcode: defect fixed: the last note is played, to its end") {
   const Song s = song_of({{0, 0, 1, 60}, {0, 1, 0.5, 72}});
   const GcodePlan plan = plan_gcode(s, box(200, 200, 200), {});
@@ -265,4 +272,15 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
   CHECK(d.start[0] == 50);
   o.steps_per_cycle = 0;
   CHECK(plan_error(s, box(100, 100, 100), o) == "steps per cycle must be above 0 and at most 64");
+}
+
+TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to a denormal room hung)") {
+  for (const char *name : {"border-denormal-hang.sng", "border-denormal-hang.mid"}) {
+    INFO(name);
+    const Song s = read_song_file(std::string(STEPCHOIR_FUZZ_REGRESSIONS) + "/" + name);
+    fuzz_plan(s);  // aborts on a coordinate outside the volume; ctest's timeout catches a hang
+    const Printer p = make_printer("fuzz", "80,80,400", "0:10,-5:5,0:2", "200,200,5", "test");
+    const GcodePlan plan = plan_gcode(s, p, {});
+    CHECK(plan.steps.size() > 10);
+  }
 }

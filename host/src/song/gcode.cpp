@@ -20,6 +20,8 @@ namespace {
 
 // Two score times closer than this are one instant (MIDI tempo maps leave rounding dust), s.
 constexpr double kSameTimeS = 1e-7;
+// A carriage this close to a border is at it, mm (far below the 1e-5 mm the G-code writes).
+constexpr double kAtBorderMm = 1e-9;
 
 // Splits text at sep. Called by the field parsers.
 std::vector<std::string_view> split(std::string_view text, char sep) {
@@ -257,6 +259,19 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
     if (instants.empty() || t - instants.back() > kSameTimeS) instants.push_back(t);
   if (instants.empty() || instants.front() > kSameTimeS) instants.insert(instants.begin(), 0.0);
   plan.duration_s = instants.back();
+  // Bound the output before making it: at most one move per segment plus one per border reached.
+  double moves_bound = static_cast<double>(instants.size());
+  for (size_t a = 0; a < used; ++a)
+    for (const auto &p : lines[a])
+      if (p.midi_note >= 0) {
+        const PrinterAxis &ax = printer.axes[a];
+        moves_bound += 1 + note_hz(p.midi_note) * options.steps_per_cycle / ax.steps_per_mm * (p.t1 - p.t0) /
+                               (ax.max_mm - ax.min_mm);
+      }
+  if (moves_bound > kMaxGcodeMoves)
+    throw GcodeError("the song would take some " + std::to_string(static_cast<long long>(moves_bound)) +
+                     " moves (" + fixed(plan.duration_s, 0) + " s long), more than the " +
+                     std::to_string(kMaxGcodeMoves) + " a G-code file is allowed here");
 
   double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1};
   for (size_t a = 0; a < kGcodeAxes; ++a) pos[a] = plan.start_mm[a] = (printer.axes[a].min_mm + printer.axes[a].max_mm) / 2;
@@ -291,22 +306,30 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       continue;
     }
     // Straight pieces until the segment ends; an axis reaching a border turns round, at the same
-    // speed. Each piece ends a segment or reaches a border, and an axis that turned has its whole
-    // length ahead, so the loop ends after at most about duration x speed / length pieces.
+    // speed. Each piece ends a segment or brings an axis to a border, and an axis that turned
+    // has its whole length ahead, so the loop ends after at most about duration x speed / length
+    // pieces (bounded above).
+    // An axis within kAtBorderMm of the border it heads for is there (rounding must not leave
+    // it a room too small to ever cross).
     double left_s = seg.duration_s;
     while (left_s > 0) {
       double dt = left_s;
       for (size_t a = 0; a < used; ++a) {
         if (speed_mm_s[a] == 0) continue;
         const PrinterAxis &ax = printer.axes[a];
-        const double room = dir[a] > 0 ? ax.max_mm - pos[a] : pos[a] - ax.min_mm;
+        double room = dir[a] > 0 ? ax.max_mm - pos[a] : pos[a] - ax.min_mm;
+        if (room <= kAtBorderMm) {
+          pos[a] = dir[a] > 0 ? ax.max_mm : ax.min_mm;
+          dir[a] = -dir[a];
+          room = ax.max_mm - ax.min_mm;
+        }
         dt = std::min(dt, room / speed_mm_s[a]);
       }
       for (size_t a = 0; a < used; ++a) {
         if (speed_mm_s[a] == 0) continue;
         const PrinterAxis &ax = printer.axes[a];
         const double room = dir[a] > 0 ? ax.max_mm - pos[a] : pos[a] - ax.min_mm;
-        if (room <= speed_mm_s[a] * dt) {  // this axis reaches its border now
+        if (room - speed_mm_s[a] * dt <= kAtBorderMm) {  // this axis reaches its border now
           pos[a] = dir[a] > 0 ? ax.max_mm : ax.min_mm;
           dir[a] = -dir[a];
         } else {

@@ -24,6 +24,9 @@ constexpr double kDefaultStepsPerCycle = 2.0;
 constexpr double kTravelFeedMmPerMin = 3000.0;
 // Shortest axis the planner accepts, mm (a bounce needs room to sing).
 constexpr double kMinAxisLengthMm = 1.0;
+// Most moves one song may make (about 100 MB of G-code; hours of music): a bound on memory for
+// absurd songs such as a MIDI note days long.
+constexpr size_t kMaxGcodeMoves = 2000000;
 
 // A bad printer description or option: what() says what and where.
 class GcodeError : public std::runtime_error {
