@@ -263,13 +263,19 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
   o.home = true;
   o.use_g1 = true;
   const std::string text = write_gcode(plan_gcode(s, box(100, 100, 100), o), box(100, 100, 100), o, "song");
-  CHECK(text.find("G21 ; millimetres\nG90 ; absolute positions\nG28 ; home every axis\nG1 X50.00000 Y50.00000 Z50.00000") !=
-        std::string::npos);
+  CHECK(text.find("G21 ; millimetres\nG90 ; absolute positions\nG28 ; home every axis\nG1 Z50.00000 F3000.000 ; to the "
+                  "middle of the volume\nG1 X50.00000 Y50.00000 F3000.000\n") != std::string::npos);
   CHECK(text.find("G0 ") == std::string::npos);
   CHECK(text.find("; song ends\nM400") != std::string::npos);
   const auto d = gcheck::decode(text);
   CHECK(d.homed);
   CHECK(d.start[0] == 50);
+  CHECK(d.start[2] == 50);
+  // Each axis's travel within its max feed: Z on an Ender-3 at 5 mm/s.
+  const Printer &e = find_printer(builtin_printers(), "ender3");
+  const std::string ender = write_gcode(plan_gcode(s, e, {}), e, {}, "song");
+  CHECK(ender.find("G0 Z125.00000 F300.000 ; to the middle of the volume\nG0 X110.00000 Y110.00000 F3000.000\n") !=
+        std::string::npos);
   o.steps_per_cycle = 0;
   CHECK(plan_error(s, box(100, 100, 100), o) == "steps per cycle must be above 0 and at most 64");
 }

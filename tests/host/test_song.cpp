@@ -66,6 +66,12 @@ TEST_CASE("sng: notes, rests, fractional beats, comments and two channels in abs
   CHECK(s.notes[0].velocity == kSngVelocity);
 }
 
+TEST_CASE("sng: a UTF-8 byte order mark before the first line is skipped") {
+  const Song s = read_sng("\xEF\xBB\xBF% song\nTEMPO 60\nBEGINCH\nA 4 1\nENDCH\n", "t.sng");
+  CHECK(s.notes.size() == 1);
+  CHECK(sng_error("TEMPO 60\n\xEF\xBB\xBF" "BEGINCH\nA 4 1\nENDCH\n").find("t.sng:2: unknown line") == 0);
+}
+
 TEST_CASE("sng: a trailing rest counts in the song's length") {
   const Song s = read_sng("TEMPO 60\nBEGINCH\nA 4 1\n- 3\nENDCH\n", "t.sng");
   REQUIRE(s.notes.size() == 1);

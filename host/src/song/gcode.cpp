@@ -369,10 +369,15 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
   for (const auto &w : plan.warnings) out += "; warning: " + w + "\n";
   out += "G21 ; millimetres\nG90 ; absolute positions\n";
   if (options.home) out += "G28 ; home every axis\n";
-  double travel = kTravelFeedMmPerMin;
-  for (const auto &ax : printer.axes)
-    if (ax.max_feed_mm_s > 0) travel = std::min(travel, ax.max_feed_mm_s * 60.0);
-  out += std::string(move) + coords(plan.start_mm) + " F" + fixed(travel, 3) + " ; to the middle of the volume\n";
+  // To the start: Z first (up, from a homed bed), then X and Y, each within its axis's max feed.
+  auto travel_mm_min = [&](size_t a) {
+    const double limit = printer.axes[a].max_feed_mm_s * 60.0;
+    return limit > 0 ? std::min(kTravelFeedMmPerMin, limit) : kTravelFeedMmPerMin;
+  };
+  out += std::string(move) + " Z" + fixed(plan.start_mm[2], 5) + " F" + fixed(travel_mm_min(2), 3) +
+         " ; to the middle of the volume\n";
+  out += std::string(move) + " X" + fixed(plan.start_mm[0], 5) + " Y" + fixed(plan.start_mm[1], 5) + " F" +
+         fixed(std::min(travel_mm_min(0), travel_mm_min(1)), 3) + "\n";
   out += "M400 ; wait until there\n; song starts\n";
   double exact_s = 0, written_s = 0;  // dwell times are whole milliseconds; the rounding is carried
   for (const auto &st : plan.steps) {

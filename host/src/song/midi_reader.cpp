@@ -102,10 +102,11 @@ class MidiParser {
   // Throws at the current position. Called by every check.
   [[noreturn]] void fail(const std::string &what) const { fail_at(pos_, what); }
 
-  // Big-endian reads at an offset the caller has bounds-checked. Called by header and parse.
+  // Big-endian 32-bit read at an offset the caller has bounds-checked. Called by header and parse.
   uint32_t u32(size_t at) const {
     return uint32_t{d_[at]} << 24 | uint32_t{d_[at + 1]} << 16 | uint32_t{d_[at + 2]} << 8 | d_[at + 3];
   }
+  // Big-endian 16-bit read at an offset the caller has bounds-checked. Called by header.
   uint16_t u16(size_t at) const { return static_cast<uint16_t>(d_[at] << 8 | d_[at + 1]); }
 
   // Parses MThd. Called by parse.

@@ -174,7 +174,7 @@ struct SngParser {
 
 Song read_sng(std::string_view text, const std::string &name) {
   SngParser p{name, {}, {}, 0, {}, 0, false, {}, 0, 0, 0, 0};
-  size_t pos = 0;
+  size_t pos = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // a UTF-8 byte order mark is not a line
   while (pos < text.size()) {
     size_t eol = text.find('\n', pos);
     if (eol == std::string_view::npos) eol = text.size();
