@@ -93,7 +93,8 @@ TEST_CASE("stepchoir gcode: bad songs and options exit 1 with what and where") {
   const std::pair<std::string, std::string> cases[] = {
       {bad + " -o " + out, "stepchoir gcode: " + bad + ":4: note name 'c'"},
       {trunc + " -o " + out, "stepchoir gcode: " + trunc + ": byte 22 (chunk 1 'MTrk' at byte 14, track 0): chunk length 64 runs past"},
-      {"/nonexistent.sng -o " + out, "stepchoir gcode: /nonexistent.sng: cannot open"},
+      {"/nonexistent.sng -o " + out, "stepchoir gcode: /nonexistent.sng: cannot open: No such file"},
+      {std::string(STEPCHOIR_SCRATCH) + " -o " + out, "stepchoir gcode: " + std::string(STEPCHOIR_SCRATCH) + ": cannot read: Is a directory"},
       {bad + " -o " + out + " --printer mk4", "stepchoir gcode: " + bad + ":4"},
   };
   for (const auto &[args, error] : cases) {

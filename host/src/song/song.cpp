@@ -42,9 +42,9 @@ Song read_song_file(const std::string &path) {
     }
     bytes.insert(bytes.end(), buf, buf + n);
   }
-  const bool failed = std::ferror(f);
+  const int read_errno = std::ferror(f) ? errno : 0;
   std::fclose(f);
-  if (failed) throw SongError(path + ": read error");
+  if (read_errno) throw SongError(path + ": cannot read: " + std::strerror(read_errno));
   if (bytes.size() >= 4 && std::memcmp(bytes.data(), "MThd", 4) == 0) return read_midi(bytes.data(), bytes.size(), path);
   const auto dot = path.rfind('.');
   const std::string ext = dot == std::string::npos ? "" : path.substr(dot);
