@@ -106,17 +106,23 @@ inline int expected_note(const Song &song, const Voice &v, double t, const Print
   return best;
 }
 
-// Tolerances: dwells are written in whole milliseconds (the rounding is carried, so times never
-// drift more than half of one); coordinates have 5 decimals.
-constexpr double kTimeTolS = 1e-3;
+// Tolerances: dwells are written in whole milliseconds (the rounding is carried, so a time is
+// never more than half of one off, and a stretch between two times at most one), plus float dust;
+// coordinates have 5 decimals.
+constexpr double kTimeTolS = 1e-3 + 1e-9;
 constexpr double kRateTol = 1e-3;  // 0.1 %
 
-// Checks decoded G-code against the song: every stretch of the score between two changes of any
-// voice lasts what the score says and each axis steps at its note's rate within 0.1 % (silent
-// axes do not move); every coordinate inside the volume; notes start toward the border with
-// more room; the song ends with its last note. Called by the tests.
-inline void check(const Decoded &d, const Song &song, const Printer &printer, const std::vector<Voice> &axis_voice,
-                  double spc, bool fold = false) {
+// What is wrong with decoded G-code against the song (empty: nothing): every stretch of the
+// score between two changes of any voice must last what the score says and each axis must step
+// at its note's rate within 0.1 % (silent axes do not move); every coordinate inside the volume;
+// notes start toward the border with more room; the song ends with its last note. Called by
+// check and the test that shows it finds broken G-code.
+inline std::vector<std::string> problems(const Decoded &d, const Song &song, const Printer &printer,
+                                         const std::vector<Voice> &axis_voice, double spc, bool fold = false) {
+  std::vector<std::string> out;
+  auto expect = [&](bool ok, const std::string &what) {
+    if (!ok) out.push_back(what);
+  };
   std::vector<double> times;
   for (const auto &n : song.notes)
     for (const auto &v : axis_voice)
@@ -126,20 +132,23 @@ inline void check(const Decoded &d, const Song &song, const Printer &printer, co
   std::vector<double> cuts;
   for (double t : times)
     if (cuts.empty() || t - cuts.back() > 1e-6) cuts.push_back(t);
-  REQUIRE(cuts.size() >= 2);
   // The song ends with its last note: the G-code lasts until the last note of the chosen voices ends.
-  CHECK(d.end_s == Approx(cuts.back()).margin(kTimeTolS));
-  for (const auto &m : d.moves)
-    for (size_t a = 0; a < kGcodeAxes; ++a) {
-      CHECK(m.to[a] >= printer.axes[a].min_mm - 1e-9);
-      CHECK(m.to[a] <= printer.axes[a].max_mm + 1e-9);
-    }
+  expect(std::fabs(d.end_s - cuts.back()) <= kTimeTolS,
+         "the G-code lasts " + std::to_string(d.end_s) + " s, the score " + std::to_string(cuts.back()) + " s");
+  for (size_t k = 0; k < d.moves.size(); ++k)
+    for (size_t a = 0; a < kGcodeAxes; ++a)
+      expect(d.moves[k].to[a] >= printer.axes[a].min_mm - 1e-9 && d.moves[k].to[a] <= printer.axes[a].max_mm + 1e-9,
+             "move " + std::to_string(k) + ": " + kAxisNames[a] + std::to_string(d.moves[k].to[a]) + " outside the volume");
   size_t i = 0;
   for (size_t s = 0; s + 1 < cuts.size(); ++s) {
     const double t0 = cuts[s], t1 = cuts[s + 1], mid = (t0 + t1) / 2;
-    INFO("segment " << s << " from " << t0 << " s to " << t1 << " s");
-    REQUIRE(i < d.moves.size());
-    CHECK(d.moves[i].start_s == Approx(t0).margin(kTimeTolS));
+    const std::string where = "segment " + std::to_string(s) + " (" + std::to_string(t0) + " s to " + std::to_string(t1) + " s)";
+    if (i >= d.moves.size()) {
+      out.push_back(where + ": no G-code left");
+      break;
+    }
+    expect(std::fabs(d.moves[i].start_s - t0) <= kTimeTolS,
+           where + ": starts at " + std::to_string(d.moves[i].start_s) + " s in the G-code");
     double travelled[kGcodeAxes] = {0, 0, 0}, duration = 0;
     const size_t first = i;
     while (i < d.moves.size() && d.moves[i].start_s < t1 - kTimeTolS) {
@@ -147,19 +156,20 @@ inline void check(const Decoded &d, const Song &song, const Printer &printer, co
       duration += d.moves[i].duration_s;
       ++i;
     }
-    CHECK(duration == Approx(t1 - t0).margin(kTimeTolS));
+    expect(std::fabs(duration - (t1 - t0)) <= kTimeTolS, where + ": lasts " + std::to_string(duration) + " s");
     for (size_t a = 0; a < kGcodeAxes; ++a) {
-      INFO("axis " << kAxisNames[a]);
+      const std::string axis = where + ", " + kAxisNames[a];
       const PrinterAxis &ax = printer.axes[a];
       const int note = a < axis_voice.size() ? expected_note(song, axis_voice[a], mid, ax, spc, fold) : -1;
       if (note < 0) {
-        CHECK(travelled[a] == 0);
+        expect(travelled[a] == 0, axis + ": silent, but moves " + std::to_string(travelled[a]) + " mm");
         continue;
       }
       const double want_steps_s = note_hz(note) * spc;
       const double got_steps_s = travelled[a] * ax.steps_per_mm / duration;
-      INFO("note " << note_name(note) << ": " << want_steps_s << " steps/s wanted, " << got_steps_s << " decoded");
-      CHECK(std::fabs(got_steps_s / want_steps_s - 1) <= kRateTol);
+      expect(std::fabs(got_steps_s / want_steps_s - 1) <= kRateTol,
+             axis + ": " + note_name(note) + " wants " + std::to_string(want_steps_s) + " steps/s, the G-code makes " +
+                 std::to_string(got_steps_s));
       // A note starting here (the voice's top note has its onset here) heads for the border with
       // more room.
       const int top = expected_note(song, axis_voice[a], mid, ax, spc, false);
@@ -170,11 +180,20 @@ inline void check(const Decoded &d, const Song &song, const Printer &printer, co
       const double p = d.moves[first].from[a], up = ax.max_mm - p, down = p - ax.min_mm;
       if (starts && std::fabs(up - down) > 1e-3) {
         const double step = d.moves[first].to[a] - d.moves[first].from[a];
-        CHECK((up > down ? step > 0 : step < 0));
+        expect(up > down ? step > 0 : step < 0, axis + ": the note starts toward the border with less room");
       }
     }
   }
-  CHECK(i == d.moves.size());
+  expect(i == d.moves.size(), std::to_string(d.moves.size() - i) + " G-code lines after the score's end");
+  return out;
+}
+
+// Fails the current test with each problem of the G-code. Called by the tests.
+inline void check(const Decoded &d, const Song &song, const Printer &printer, const std::vector<Voice> &axis_voice,
+                  double spc, bool fold = false) {
+  const auto found = problems(d, song, printer, axis_voice, spc, fold);
+  for (const auto &p : found) FAIL_CHECK(p);
+  CHECK(found.empty());
 }
 
 }  // namespace gcheck

@@ -269,6 +269,7 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
   CHECK(text.find("; song ends\nM400") != std::string::npos);
   const auto d = gcheck::decode(text);
   CHECK(d.homed);
+  CHECK(write_gcode(plan_gcode(s, box(9, 9, 9), o), box(9, 9, 9), o, "a\nG28\r").find("; a?G28?\n") == 0);
   CHECK(d.start[0] == 50);
   CHECK(d.start[2] == 50);
   // Each axis's travel within its max feed: Z on an Ender-3 at 5 mm/s.
@@ -289,4 +290,37 @@ TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to 
     const GcodePlan plan = plan_gcode(s, p, {});
     CHECK(plan.steps.size() > 10);
   }
+}
+
+TEST_CASE("gcode: the checker finds broken G-code: a wrong feed, a coordinate outside, a moving rest, "
+          "a missing last note, a wrong direction") {
+  const Song s = song_of({{0, 0, 1, 69}, {1, 0.5, 1, 60}, {0, 1.5, 0.5, 72}});
+  const Printer p = box(100, 100, 100);
+  const GcodePlan plan = plan_gcode(s, p, {});
+  const gcheck::Decoded good = gcheck::decode(write_gcode(plan, p, {}, "song"));
+  REQUIRE(gcheck::problems(good, s, p, plan.axis_voice, 2).empty());
+  auto with = [&](auto change) {
+    gcheck::Decoded d = good;
+    change(d);
+    return gcheck::problems(d, s, p, plan.axis_voice, 2);
+  };
+  auto any = [](const std::vector<std::string> &found, const std::string &what) {
+    for (const auto &f : found)
+      if (f.find(what) != std::string::npos) return true;
+    return false;
+  };
+  CHECK(any(with([](gcheck::Decoded &d) { d.moves[1].duration_s *= 1.01; }), "steps/s, the G-code makes"));
+  CHECK(any(with([](gcheck::Decoded &d) { d.moves[0].to[1] = 100.5; }), "outside the volume"));
+  CHECK(any(with([](gcheck::Decoded &d) { d.moves[0].to[1] += 1; }), "Y: silent, but moves"));
+  CHECK(any(with([](gcheck::Decoded &d) {
+              d.end_s -= d.moves.back().duration_s;
+              d.moves.pop_back();
+            }),
+            "the G-code lasts"));
+  // At 1.5 s X is at 61 mm (1 s of A4 up from 50): C5 must head down, toward 0.
+  CHECK(any(with([](gcheck::Decoded &d) {
+              for (auto &m : d.moves)
+                if (std::fabs(m.start_s - 1.5) < 1e-6) m.to[0] = 2 * m.from[0] - m.to[0];
+            }),
+            "X: the note starts toward the border with less room"));
 }

@@ -357,7 +357,10 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
     return s;
   };
   std::string out;
-  out += "; " + title + "\n";
+  std::string safe_title = title;  // a comment line: no control characters
+  for (char &c : safe_title)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) c = '?';
+  out += "; " + safe_title + "\n";
   out += "; stepchoir gcode: printer " + printer.name + " (" + printer.description + ")\n";
   out += "; steps/mm";
   for (size_t a = 0; a < kGcodeAxes; ++a)
