@@ -8,15 +8,17 @@
 #include "song/gcode.h"
 #include "song/song.h"
 
-// Plans a read song on a small printer (so that bounces happen); aborts, for libFuzzer to
+// Plans a read song on a small printer (so that bounces happen), with the extruder for some;
+// aborts, for libFuzzer to
 // report, when a move leaves the volume. Songs longer than ten minutes are skipped to keep each
 // run fast. Called by the fuzz targets.
 inline void fuzz_plan(const stepchoir::Song &song) {
   if (song.duration_s > 600) return;
   static const stepchoir::Printer printer =
-      stepchoir::make_printer("fuzz", "80,80,400", "0:10,-5:5,0:2", "200,200,5", "fuzz");
+      stepchoir::make_printer("fuzz", "80,80,400,100", "0:10,-5:5,0:2", "200,200,5,25", "fuzz");
   stepchoir::GcodeOptions options;
   options.fold_octaves = song.notes.size() % 2 == 0;
+  options.extruder = song.notes.size() % 3 == 0;
   try {
     const stepchoir::GcodePlan plan = stepchoir::plan_gcode(song, printer, options);
     for (const auto &step : plan.steps)

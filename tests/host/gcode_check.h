@@ -23,25 +23,26 @@ using namespace stepchoir;
 // One decoded line of the song part: a move or a dwell, with when it starts and how long it lasts.
 struct Move {
   bool dwell = false;
-  double from[kGcodeAxes] = {0, 0, 0}, to[kGcodeAxes] = {0, 0, 0};
+  double from[kGcodeAxes] = {0, 0, 0, 0}, to[kGcodeAxes] = {0, 0, 0, 0};
   double feed_mm_min = 0, start_s = 0, duration_s = 0;
 };
 
 // What a G-code text says.
 struct Decoded {
-  bool homed = false, millimetres = false, absolute = false;
-  double start[kGcodeAxes] = {0, 0, 0};  // position when the song starts
+  bool homed = false, millimetres = false, absolute = false, cold_extrusion = false;
+  double start[kGcodeAxes] = {0, 0, 0, 0};  // position when the song starts
   std::vector<Move> moves;
   double end_s = 0;
 };
 
-// Decodes G0/G1 (X Y Z F, modal), G4 P, G21, G90, G28; the song is between "; song starts" and
-// "; song ends". Called by the tests.
+// Decodes G0/G1 (X Y Z E F, modal), G4 P, G21, G90, G28, G92 E0, M302 P; the song is between
+// "; song starts" and "; song ends". A move lasts its X/Y/Z distance over the feed, or its E
+// distance when only E moves (as Marlin and Klipper time them). Called by the tests.
 inline Decoded decode(const std::string &text) {
   Decoded d;
   std::istringstream in(text);
   std::string line;
-  double pos[kGcodeAxes] = {0, 0, 0}, feed = 0, t = 0;
+  double pos[kGcodeAxes] = {0, 0, 0, 0}, feed = 0, t = 0;
   bool in_song = false, ended = false;
   while (std::getline(in, line)) {
     if (line == "; song starts") {
@@ -55,6 +56,11 @@ inline Decoded decode(const std::string &text) {
     if (w == "G21") d.millimetres = true;
     else if (w == "G90") d.absolute = true;
     else if (w == "G28") d.homed = true;
+    else if (w == "G92") pos[kExtruderAxis] = 0;
+    else if (w == "M302") {
+      words >> w;
+      d.cold_extrusion = w == "P1";
+    }
     else if (w == "G4") {
       std::string p;
       words >> p;
@@ -78,7 +84,8 @@ inline Decoded decode(const std::string &text) {
       }
       std::copy(pos, pos + kGcodeAxes, m.to);
       double dist = 0;
-      for (size_t a = 0; a < kGcodeAxes; ++a) dist += (m.to[a] - m.from[a]) * (m.to[a] - m.from[a]);
+      for (size_t a = 0; a < kCartesianAxes; ++a) dist += (m.to[a] - m.from[a]) * (m.to[a] - m.from[a]);
+      if (dist == 0) dist = (m.to[kExtruderAxis] - m.from[kExtruderAxis]) * (m.to[kExtruderAxis] - m.from[kExtruderAxis]);
       REQUIRE(feed > 0);
       m.feed_mm_min = feed;
       m.start_s = t;

@@ -67,6 +67,8 @@ TEST_CASE("gcode: the built-in presets are an Ender-3-like, a Prusa-MK3S-like an
   CHECK(e.axes[2].steps_per_mm == 400);
   CHECK(e.axes[1].max_mm == 220);
   CHECK(e.axes[2].max_feed_mm_s == 5);
+  CHECK(e.axes[kExtruderAxis].steps_per_mm == 93);
+  CHECK(e.axes[kExtruderAxis].min_mm == -kExtruderTravelMm);
   const Printer &m = find_printer(p, "prusa-mk3s");
   CHECK(m.axes[0].steps_per_mm == 100);
   CHECK(m.axes[1].min_mm == -4);
@@ -77,7 +79,9 @@ TEST_CASE("gcode: the built-in presets are an Ender-3-like, a Prusa-MK3S-like an
 
 TEST_CASE("gcode: bad printer descriptions say where and what") {
   const std::pair<const char *, const char *> cases[] = {
-      {"a 80,80 0:1,0:1,0:1 1,1,1", "p.conf:1: expected steps/mm as X,Y,Z (three numbers), got '80,80'"},
+      {"a 80,80 0:1,0:1,0:1 1,1,1", "p.conf:1: expected steps/mm as X,Y,Z or X,Y,Z,E, got '80,80'"},
+      {"a 80,80,80,-1 0:9,0:9,0:9 1,1,1", "p.conf:1: E steps/mm must be 0 to 1000000"},
+      {"a 80,80,80,80 0:9,0:9,0:9 1,1,1,-2", "p.conf:1: E's max feed is negative"},
       {"# c\na 80,80,x 0:9,0:9,0:9 1,1,1", "p.conf:2: expected a number for steps/mm, got 'x'"},
       {"a 80,80,80 0:9,0:9 1,1,1", "p.conf:1: expected the volume as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX"},
       {"a 80,80,80 0:9,0:9,9 1,1,1", "p.conf:1: expected Z's range as MIN:MAX, got '9'"},
@@ -286,7 +290,7 @@ TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to 
     INFO(name);
     const Song s = read_song_file(std::string(STEPCHOIR_FUZZ_REGRESSIONS) + "/" + name);
     fuzz_plan(s);  // aborts on a coordinate outside the volume; ctest's timeout catches a hang
-    const Printer p = make_printer("fuzz", "80,80,400", "0:10,-5:5,0:2", "200,200,5", "test");
+    const Printer p = make_printer("fuzz", "80,80,400,100", "0:10,-5:5,0:2", "200,200,5,25", "test");
     const GcodePlan plan = plan_gcode(s, p, {});
     CHECK(plan.steps.size() > 10);
   }
@@ -323,4 +327,31 @@ TEST_CASE("gcode: the checker finds broken G-code: a wrong feed, a coordinate ou
                 if (std::fabs(m.start_s - 1.5) < 1e-6) m.to[0] = 2 * m.from[0] - m.to[0];
             }),
             "X: the note starts toward the border with less room"));
+}
+
+TEST_CASE("gcode: --extruder: E sings a fourth voice inside its 5 mm, timed alone when only it moves") {
+  // Four voices; E alone from 2 s to 3 s (its feed is then measured on E).
+  const Song s = song_of({{0, 0, 2, 60}, {1, 0, 2, 64}, {2, 0.5, 1, 55}, {3, 0, 3, 57}, {3, 3.5, 0.5, 62}});
+  const Printer &e = find_printer(builtin_printers(), "ender3");
+  GcodeOptions o;
+  CHECK(plan_error(s, e, o).find("or add E with --extruder") != std::string::npos);
+  o.extruder = true;
+  const GcodePlan plan = plan_gcode(s, e, o);
+  REQUIRE(plan.axis_voice.size() == 4);
+  CHECK(plan.axis_count == 4);
+  const std::string text = write_gcode(plan, e, o, "song");
+  CHECK(text.find("M82 ; absolute extrusion\nG92 E0") != std::string::npos);
+  CHECK(text.find("M302 P0") != std::string::npos);
+  const gcheck::Decoded d = gcheck::decode(text);
+  CHECK(d.start[kExtruderAxis] == 0);
+  gcheck::check(d, s, e, plan.axis_voice, 2);
+  // 3 s of A3 on 93 steps/mm is 10.5 mm of filament: E turned round inside +-5 mm.
+  double lowest = 0, highest = 0;
+  for (const auto &m : d.moves) lowest = std::min(lowest, m.to[kExtruderAxis]), highest = std::max(highest, m.to[kExtruderAxis]);
+  CHECK(highest - lowest > 5);
+  CHECK(highest <= kExtruderTravelMm);
+  CHECK(lowest >= -kExtruderTravelMm);
+  // Without E steps/mm there is no extruder to sing on.
+  const Printer no_e = box(100, 100, 100);
+  CHECK(plan_error(s, no_e, o) == "printer box has no E steps/mm; give them as --steps-per-mm X,Y,Z,E");
 }

@@ -65,7 +65,7 @@ TEST_CASE("stepchoir gcode: the sample songs on the Ender-3 and Prusa presets de
     }
 }
 
-TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out of four") {
+TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out of four; all four with --extruder") {
   smf::Track t;
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(0, {static_cast<uint8_t>(0x90 | ch), static_cast<uint8_t>(55 + 3 * ch), 100});
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(ch == 0 ? 960 : 0, {static_cast<uint8_t>(0x80 | ch), static_cast<uint8_t>(55 + 3 * ch), 0});
@@ -84,6 +84,15 @@ TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out
   GcodeOptions o;
   o.voice_of_axis = {3, 0};
   gcheck::check(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, o).axis_voice, kDefaultStepsPerCycle);
+  // All four voices with the extruder as the fourth axis.
+  REQUIRE(run_gcode(mid + " -o " + out + " --printer prusa-mk3s --extruder", err) == 0);
+  const Printer &mk3s = find_printer(builtin_printers(), "prusa-mk3s");
+  GcodeOptions with_e;
+  with_e.extruder = true;
+  const gcheck::Decoded d = gcheck::decode(slurp(out));
+  CHECK(d.cold_extrusion == false);  // allowed for the song, prevented again at its end
+  gcheck::check(d, s, mk3s, plan_gcode(s, mk3s, with_e).axis_voice, kDefaultStepsPerCycle);
+  CHECK(plan_gcode(s, mk3s, with_e).axis_voice.size() == 4);
 }
 
 TEST_CASE("stepchoir gcode: bad songs and options exit 1 with what and where") {

@@ -48,12 +48,13 @@ double number(std::string_view w, const std::string &where, const char *what) {
   return v;
 }
 
-// Three comma-separated numbers, one per axis. Called by make_printer.
-void triple(std::string_view w, const std::string &where, const char *what, double out[kGcodeAxes]) {
+// Comma-separated numbers, one per axis: X,Y,Z or X,Y,Z,E (E left as it is when not given).
+// Called by make_printer.
+void per_axis(std::string_view w, const std::string &where, const char *what, double out[kGcodeAxes]) {
   const auto parts = split(w, ',');
-  if (parts.size() != kGcodeAxes)
-    throw GcodeError(where + ": expected " + what + " as X,Y,Z (three numbers), got '" + std::string(w) + "'");
-  for (size_t a = 0; a < kGcodeAxes; ++a) out[a] = number(parts[a], where, what);
+  if (parts.size() != kCartesianAxes && parts.size() != kGcodeAxes)
+    throw GcodeError(where + ": expected " + what + " as X,Y,Z or X,Y,Z,E, got '" + std::string(w) + "'");
+  for (size_t a = 0; a < parts.size(); ++a) out[a] = number(parts[a], where, what);
 }
 
 // One voice's line, one note at a time: the highest sounding note wins.
@@ -113,13 +114,20 @@ Printer make_printer(const std::string &name, std::string_view steps, std::strin
                              std::string_view max_feed, const std::string &where) {
   Printer p;
   p.name = name;
-  double s[kGcodeAxes], f[kGcodeAxes] = {0, 0, 0};
-  triple(steps, where, "steps/mm", s);
-  if (!max_feed.empty()) triple(max_feed, where, "max feed (mm/s)", f);
+  double s[kGcodeAxes] = {0, 0, 0, 0}, f[kGcodeAxes] = {0, 0, 0, 0};
+  per_axis(steps, where, "steps/mm", s);
+  if (!max_feed.empty()) per_axis(max_feed, where, "max feed (mm/s)", f);
   const auto ranges = split(volume, ',');
-  if (ranges.size() != kGcodeAxes)
+  if (ranges.size() != kCartesianAxes)
     throw GcodeError(where + ": expected the volume as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got '" + std::string(volume) + "'");
-  for (size_t a = 0; a < kGcodeAxes; ++a) {
+  PrinterAxis &e = p.axes[kExtruderAxis];
+  e.steps_per_mm = s[kExtruderAxis];
+  e.min_mm = -kExtruderTravelMm;
+  e.max_mm = kExtruderTravelMm;
+  e.max_feed_mm_s = f[kExtruderAxis];
+  if (e.steps_per_mm < 0 || e.steps_per_mm > 1e6) throw GcodeError(where + ": E steps/mm must be 0 to 1000000");
+  if (e.max_feed_mm_s < 0) throw GcodeError(where + ": E's max feed is negative");
+  for (size_t a = 0; a < kCartesianAxes; ++a) {
     const auto ends = split(ranges[a], ':');
     if (ends.size() != 2)
       throw GcodeError(where + ": expected " + kAxisNames[a] + "'s range as MIN:MAX, got '" + std::string(ranges[a]) + "'");
@@ -190,23 +198,29 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
   if (!(options.steps_per_cycle > 0) || options.steps_per_cycle > 64)
     throw GcodeError("steps per cycle must be above 0 and at most 64");
   GcodePlan plan;
+  if (options.extruder && !(printer.axes[kExtruderAxis].steps_per_mm > 0))
+    throw GcodeError("printer " + printer.name + " has no E steps/mm; give them as --steps-per-mm X,Y,Z,E");
+  const size_t axes = options.extruder ? kGcodeAxes : kCartesianAxes;
+  const std::string axis_list = options.extruder ? "X, Y, Z, E" : "X, Y, Z";
+  plan.axis_count = axes;
   const std::vector<Voice> voices = voices_of(song);
   std::vector<size_t> chosen = options.voice_of_axis;
   if (chosen.empty()) {
-    if (voices.size() > kGcodeAxes) {
+    if (voices.size() > axes) {
       std::string list;
       for (size_t v = 0; v < voices.size(); ++v)
         list += "\n  " + std::to_string(v) + ": track " + std::to_string(voices[v].track) + " channel " +
                 std::to_string(voices[v].channel) + " (" + std::to_string(voices[v].note_count) + " notes)";
       throw GcodeError("the song has " + std::to_string(voices.size()) + " voices and the printer " +
-                       std::to_string(kGcodeAxes) + " axes; choose up to " + std::to_string(kGcodeAxes) +
-                       " with --channels (e.g. --channels 0,1,2 for X, Y, Z):" + list);
+                       std::to_string(axes) + " axes; choose up to " + std::to_string(axes) +
+                       " with --channels (e.g. --channels " + (options.extruder ? "0,1,2,3" : "0,1,2") + " for " +
+                       axis_list + ")" + (options.extruder ? "" : " or add E with --extruder") + ":" + list);
     }
     for (size_t v = 0; v < voices.size(); ++v) chosen.push_back(v);
   }
-  if (chosen.size() > kGcodeAxes)
+  if (chosen.size() > axes)
     throw GcodeError("--channels names " + std::to_string(chosen.size()) + " voices; the printer has " +
-                     std::to_string(kGcodeAxes) + " axes (X, Y, Z)");
+                     std::to_string(axes) + " axes (" + axis_list + ")");
   for (size_t a = 0; a < chosen.size(); ++a) {
     if (chosen[a] >= voices.size())
       throw GcodeError("--channels: no voice " + std::to_string(chosen[a]) + "; the song has voices 0-" +
@@ -273,14 +287,14 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
                      " moves (" + fixed(plan.duration_s, 0) + " s long), more than the " +
                      std::to_string(kMaxGcodeMoves) + " a G-code file is allowed here");
 
-  double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1};
+  double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1, 1};
   for (size_t a = 0; a < kGcodeAxes; ++a) pos[a] = plan.start_mm[a] = (printer.axes[a].min_mm + printer.axes[a].max_mm) / 2;
   std::vector<size_t> cursor(used, 0);
   for (size_t s = 0; s + 1 < instants.size(); ++s) {
     GcodeSegment seg;
     seg.start_s = instants[s];
     seg.duration_s = instants[s + 1] - instants[s];
-    double speed_mm_s[kGcodeAxes] = {0, 0, 0};
+    double speed_mm_s[kGcodeAxes] = {0, 0, 0, 0};
     for (size_t a = 0; a < used; ++a) {
       const auto &l = lines[a];
       size_t &c = cursor[a];
@@ -295,9 +309,10 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         dir[a] = ax.max_mm - pos[a] >= pos[a] - ax.min_mm ? 1 : -1;
     }
     plan.segments.push_back(seg);
+    // Firmware measures a move's feed on X, Y and Z only (E follows); a move of E alone on E.
     double combined = 0;
-    for (double v : speed_mm_s) combined += v * v;
-    combined = std::sqrt(combined);
+    for (size_t a = 0; a < kCartesianAxes; ++a) combined += speed_mm_s[a] * speed_mm_s[a];
+    combined = combined > 0 ? std::sqrt(combined) : speed_mm_s[kExtruderAxis];
     if (combined == 0) {
       GcodeStep d;
       d.dwell = true;
@@ -353,7 +368,7 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
   const char *move = options.use_g1 ? "G1" : "G0";
   auto coords = [&](const double *p) {
     std::string s;
-    for (size_t a = 0; a < kGcodeAxes; ++a) s += std::string(" ") + kAxisNames[a] + fixed(p[a], 5);
+    for (size_t a = 0; a < plan.axis_count; ++a) s += std::string(" ") + kAxisNames[a] + fixed(p[a], 5);
     return s;
   };
   std::string out;
@@ -363,7 +378,7 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
   out += "; " + safe_title + "\n";
   out += "; stepchoir gcode: printer " + printer.name + " (" + printer.description + ")\n";
   out += "; steps/mm";
-  for (size_t a = 0; a < kGcodeAxes; ++a)
+  for (size_t a = 0; a < plan.axis_count; ++a)
     out += std::string(" ") + kAxisNames[a] + fixed(printer.axes[a].steps_per_mm, 3);
   out += ", steps per cycle " + fixed(options.steps_per_cycle, 3) + ", length " + fixed(plan.duration_s, 3) + " s\n";
   for (size_t a = 0; a < plan.axis_voice.size(); ++a)
@@ -381,6 +396,9 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
          " ; to the middle of the volume\n";
   out += std::string(move) + " X" + fixed(plan.start_mm[0], 5) + " Y" + fixed(plan.start_mm[1], 5) + " F" +
          fixed(std::min(travel_mm_min(0), travel_mm_min(1)), 3) + "\n";
+  if (plan.axis_count > kExtruderAxis)
+    out += "M82 ; absolute extrusion\nG92 E0 ; the extruder starts at 0\n"
+           "M302 P1 ; allow cold extrusion: E sings without filament (unload it first)\n";
   out += "M400 ; wait until there\n; song starts\n";
   double exact_s = 0, written_s = 0;  // dwell times are whole milliseconds; the rounding is carried
   for (const auto &st : plan.steps) {
@@ -394,7 +412,9 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
       written_s += st.duration_s;
     }
   }
-  out += "; song ends\nM400 ; wait for the last note\nM84 ; motors off\n";
+  out += "; song ends\nM400 ; wait for the last note\n";
+  if (plan.axis_count > kExtruderAxis) out += "M302 P0 ; cold extrusion prevented again\n";
+  out += "M84 ; motors off\n";
   return out;
 }
 

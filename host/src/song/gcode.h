@@ -14,9 +14,13 @@
 
 namespace stepchoir {
 
-// Axes that sing: X, Y, Z.
-constexpr size_t kGcodeAxes = 3;
-constexpr char kAxisNames[kGcodeAxes] = {'X', 'Y', 'Z'};
+// Axes that sing: X, Y, Z, and the extruder E when asked (GcodeOptions::extruder).
+constexpr size_t kGcodeAxes = 4;
+constexpr size_t kCartesianAxes = 3;  // X, Y, Z: the axes a move's feed is measured on
+constexpr size_t kExtruderAxis = 3;
+constexpr char kAxisNames[kGcodeAxes] = {'X', 'Y', 'Z', 'E'};
+// The extruder sings back and forth inside this much filament either side of where it starts, mm.
+constexpr double kExtruderTravelMm = 5.0;
 
 // Default steps per cycle of a note: the seed's 2 (a motor stepping at 2f sounds at f).
 constexpr double kDefaultStepsPerCycle = 2.0;
@@ -46,15 +50,16 @@ struct PrinterAxis {
 struct Printer {
   std::string name;
   std::string description;
-  PrinterAxis axes[kGcodeAxes];
+  PrinterAxis axes[kGcodeAxes];  // E: steps_per_mm 0 when unknown; range +-kExtruderTravelMm
 };
 
 // Parses presets in the format of host/data/printers.conf; source names the text in errors
 // (source:line). Called by builtin_printers and the `stepchoir gcode` command. Throws GcodeError.
 std::vector<Printer> parse_printers(std::string_view text, const std::string &source);
 
-// Makes a printer from text fields: steps/mm "X,Y,Z", volume "XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX",
-// max feed "X,Y,Z" in mm/s (empty: not checked); where names the source in errors. Called by
+// Makes a printer from text fields: steps/mm "X,Y,Z" or "X,Y,Z,E", volume
+// "XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX", max feed "X,Y,Z" or "X,Y,Z,E" in mm/s (empty: not checked);
+// where names the source in errors. Called by
 // parse_printers and the command's --steps-per-mm/--volume. Throws GcodeError.
 Printer make_printer(const std::string &name, std::string_view steps, std::string_view volume,
                      std::string_view max_feed, const std::string &where);
@@ -83,26 +88,28 @@ struct GcodeOptions {
   bool fold_octaves = false;      // notes above an axis's max feed drop octaves until they fit
                                   // (otherwise they are kept and named in a warning)
   bool use_g1 = false;            // G1 instead of G0 (firmware that runs G0 at a fixed speed)
-  std::vector<size_t> voice_of_axis;  // voices_of() index per axis, X first; empty: voices 0, 1, 2
+  bool extruder = false;          // E sings a fourth voice (cold extrusion allowed: unload the filament)
+  std::vector<size_t> voice_of_axis;  // voices_of() index per axis, X first; empty: voices in order
 };
 
 // One G-code line of the song: a move (G0 to pos_mm at feed_mm_min) or a dwell (G4).
 struct GcodeStep {
   bool dwell = false;
-  double pos_mm[kGcodeAxes] = {0, 0, 0};  // move: absolute target
-  double feed_mm_min = 0;                 // move: combined feed, mm/min
+  double pos_mm[kGcodeAxes] = {0, 0, 0, 0};  // move: absolute target
+  double feed_mm_min = 0;  // move: feed over X, Y, Z (or E alone when only E moves), mm/min
   double duration_s = 0;                  // move or dwell: how long it lasts
 };
 
 // A stretch of the score in which no voice changes: what each axis plays.
 struct GcodeSegment {
   double start_s = 0, duration_s = 0;
-  int midi_note[kGcodeAxes] = {-1, -1, -1};  // note each axis plays after folding, -1 silent
+  int midi_note[kGcodeAxes] = {-1, -1, -1, -1};  // note each axis plays after folding, -1 silent
 };
 
 // The planned song.
 struct GcodePlan {
-  double start_mm[kGcodeAxes] = {0, 0, 0};  // where the song starts (the middle of the volume)
+  double start_mm[kGcodeAxes] = {0, 0, 0, 0};  // where the song starts (the middle of the volume)
+  size_t axis_count = kCartesianAxes;          // axes the G-code drives: 3, or 4 with E
   std::vector<GcodeStep> steps;
   std::vector<GcodeSegment> segments;
   std::vector<Voice> axis_voice;            // voice each used axis plays (size = axes used)

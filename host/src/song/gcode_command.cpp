@@ -1,6 +1,7 @@
 // gcode_command.cpp: the `stepchoir gcode` subcommand: options -> song reader -> planner -> file.
 #include "song/gcode_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -41,7 +42,9 @@ Printer printer_of(const GcodeCommand &c) {
   Printer p = find_printer(presets, name);
   if (!c.max_feed.empty()) {
     const Printer limits = make_printer(p.name, "1,1,1", "0:1,0:1,0:1", c.max_feed, "--max-feed");
-    for (size_t a = 0; a < kGcodeAxes; ++a) p.axes[a].max_feed_mm_s = limits.axes[a].max_feed_mm_s;
+    const bool with_e = std::count(c.max_feed.begin(), c.max_feed.end(), ',') == kGcodeAxes - 1;
+    for (size_t a = 0; a < (with_e ? kGcodeAxes : kCartesianAxes); ++a)
+      p.axes[a].max_feed_mm_s = limits.axes[a].max_feed_mm_s;
   }
   return p;
 }
@@ -72,6 +75,7 @@ int GcodeCommand::run() const {
     o.home = home;
     o.fold_octaves = fold_octaves;
     o.use_g1 = use_g1;
+    o.extruder = extruder;
     o.voice_of_axis = voices_option(channels);
     const GcodePlan plan = plan_gcode(s, p, o);
     for (const auto &w : plan.warnings) std::fprintf(stderr, "stepchoir gcode: warning: %s\n", w.c_str());
@@ -103,15 +107,17 @@ std::unique_ptr<GcodeCommand> add_gcode_command(CLI::App &app) {
   g.add_option("-o,--output", c->out, "G-code file to write ('-': standard output)")->required();
   g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, generic (default generic)");
   g.add_option("--printer-file", c->printer_file, "Read the presets from this file (format of host/data/printers.conf)");
-  g.add_option("--steps-per-mm", c->steps_per_mm, "Own printer: steps per mm as X,Y,Z (with --volume)");
+  g.add_option("--steps-per-mm", c->steps_per_mm, "Own printer: steps per mm as X,Y,Z or X,Y,Z,E (with --volume)");
   g.add_option("--volume", c->volume, "Own printer: travel as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX in mm");
-  g.add_option("--max-feed", c->max_feed, "Max feed per axis as X,Y,Z in mm/s (overrides the preset's)");
-  g.add_option("--channels", c->channels, "Voices for X, Y, Z, as numbers in the voice list (e.g. 2,0,1)");
+  g.add_option("--max-feed", c->max_feed, "Max feed per axis as X,Y,Z or X,Y,Z,E in mm/s (overrides the preset's)");
+  g.add_option("--channels", c->channels, "Voices for X, Y, Z (and E), as numbers in the voice list (e.g. 2,0,1)");
   g.add_option("--steps-per-cycle", c->steps_per_cycle, "Steps per cycle of a note's frequency")
       ->default_val(kDefaultStepsPerCycle);
   g.add_flag("--home", c->home, "Home (G28) before moving to the start");
   g.add_flag("--fold-octaves", c->fold_octaves, "Play notes too fast for an axis octaves lower (default: warn)");
   g.add_flag("--g1", c->use_g1, "Write G1 moves instead of G0 (firmware that runs G0 at a fixed speed)");
+  g.add_flag("--extruder", c->extruder,
+             "The extruder sings a fourth voice, back and forth within 5 mm (allows cold extrusion: unload the filament)");
   return c;
 }
 

@@ -14,7 +14,7 @@ struct GcodeCommand {
   CLI::App *app = nullptr;
   std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels;
   double steps_per_cycle = 0;
-  bool home = false, fold_octaves = false, use_g1 = false;
+  bool home = false, fold_octaves = false, use_g1 = false, extruder = false;
 
   // Reads the song, plans and writes the G-code; returns the exit code (errors on stderr).
   // Called by main after parsing.
