@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <fstream>
@@ -21,7 +22,8 @@ namespace {
 // Runs `stepchoir gcode ARGS`, stderr to a file; returns the exit code and sets err. Called by
 // the tests.
 int run_gcode(const std::string &args, std::string &err) {
-  const std::string err_file = std::string(STEPCHOIR_SCRATCH) + "/gcode_err.txt";
+  // One file per test process: ctest may run this program's test cases side by side.
+  const std::string err_file = std::string(STEPCHOIR_SCRATCH) + "/gcode_err." + std::to_string(getpid()) + ".txt";
   const int status = std::system((std::string(STEPCHOIR_BIN) + " gcode " + args + " 2>" + err_file).c_str());
   std::ifstream in(err_file);
   std::ostringstream text;
