@@ -72,6 +72,15 @@ TEST_CASE("sng: a UTF-8 byte order mark before the first line is skipped") {
   CHECK(sng_error("TEMPO 60\n\xEF\xBB\xBF" "BEGINCH\nA 4 1\nENDCH\n").find("t.sng:2: unknown line") == 0);
 }
 
+TEST_CASE("sng: beats are exact decimals: 0.1 + 0.2 beats end where 0.3 beats do") {
+  const Song s = read_sng("TEMPO 60\nBEGINCH\nA 4 0.1\nA 4 0.2\nB 4 1\nENDCH\nBEGINCH\nC 4 0.3\nD 4 1\nENDCH\n", "t.sng");
+  REQUIRE(s.notes.size() == 5);
+  CHECK(s.notes[3].onset_s == Approx(0.3).margin(1e-12));
+  CHECK(s.notes[4].onset_s == Approx(0.3).margin(1e-12));
+  CHECK(s.notes[4].duration_s == 1.0);
+  CHECK(sng_error("TEMPO 60\nBEGINCH\nA 4 0.1234567890123456\nENDCH\n").find("t.sng:3: expected a number of beats") == 0);
+}
+
 TEST_CASE("sng: a trailing rest counts in the song's length") {
   const Song s = read_sng("TEMPO 60\nBEGINCH\nA 4 1\n- 3\nENDCH\n", "t.sng");
   REQUIRE(s.notes.size() == 1);

@@ -16,24 +16,20 @@ constexpr double kMinBpm = 1.0;
 constexpr double kMaxBpm = 10000.0;
 
 // Parses a plain decimal number "12" or "1.5" (digits before the point required, no sign, no
-// exponent). Called by read_sng for beats and tempo.
+// exponent, at most 15 digits): the digits as an integer over a power of ten, so 0.3 is the
+// double nearest 0.3. Called by read_sng for beats and tempo.
 std::optional<double> decimal_of(std::string_view w) {
-  size_t i = 0, int_digits = 0, frac_digits = 0;
-  double v = 0;
-  while (i < w.size() && w[i] >= '0' && w[i] <= '9' && int_digits < 12) v = v * 10 + (w[i++] - '0'), ++int_digits;
-  if (int_digits == 0) return std::nullopt;
+  size_t i = 0, digits = 0, frac_digits = 0;
+  uint64_t mantissa = 0;
+  for (; i < w.size() && w[i] >= '0' && w[i] <= '9'; ++i, ++digits) mantissa = mantissa * 10 + (w[i] - '0');
+  if (digits == 0) return std::nullopt;
   if (i < w.size() && w[i] == '.') {
-    ++i;
-    double scale = 0.1;
-    while (i < w.size() && w[i] >= '0' && w[i] <= '9' && frac_digits < 12) {
-      v += (w[i++] - '0') * scale;
-      scale /= 10;
-      ++frac_digits;
-    }
+    for (++i; i < w.size() && w[i] >= '0' && w[i] <= '9' && digits <= 15; ++i, ++digits, ++frac_digits)
+      mantissa = mantissa * 10 + (w[i] - '0');
     if (frac_digits == 0) return std::nullopt;
   }
-  if (i != w.size()) return std::nullopt;
-  return v;
+  if (i != w.size() || digits > 15) return std::nullopt;
+  return static_cast<double>(mantissa) / std::pow(10.0, static_cast<double>(frac_digits));
 }
 
 // Parses an optionally signed integer of at most 6 digits. Called by read_sng for octaves and
