@@ -97,6 +97,20 @@ TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out
   CHECK(plan_gcode(s, mk3s, with_e).axis_voice.size() == 4);
 }
 
+TEST_CASE("stepchoir gcode: --printer-file reads presets from a file, and names the line of a bad one") {
+  const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/furelise.sng";
+  const std::string out = std::string(STEPCHOIR_SCRATCH) + "/own-presets.gcode";
+  const std::string good = scratch_file("presets.conf", "# mine\nsmall 160,160,800 0:30,0:40,0:20 300,300,8 a small one\n");
+  std::string err;
+  REQUIRE(run_gcode(song + " -o " + out + " --printer-file " + good + " --printer small", err) == 0);
+  const Printer p = parse_printers(slurp(good), "presets.conf")[0];
+  const Song s = read_song_file(song);
+  gcheck::check(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, {}).axis_voice, kDefaultStepsPerCycle);
+  const std::string bad = scratch_file("bad-presets.conf", "small 160,160,800 0:30,0:40,0:20 300,300,8 ok\nbig 1,2 x y\n");
+  CHECK(run_gcode(song + " -o " + out + " --printer-file " + bad + " --printer small", err) == 1);
+  CHECK(err.find("stepchoir gcode: " + bad + ":2: expected steps/mm as X,Y,Z or X,Y,Z,E, got '1,2'") == 0);
+}
+
 TEST_CASE("stepchoir gcode: bad songs and options exit 1 with what and where") {
   const std::string out = std::string(STEPCHOIR_SCRATCH) + "/bad.gcode";
   const std::string bad = scratch_file("bad.sng", "TEMPO 120\nBEGINCH\nA 4 1\nc 4 1\nENDCH\n");
