@@ -2,6 +2,8 @@
 // the error they must give, and the sample songs.
 #include <catch2/catch.hpp>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -167,4 +169,19 @@ TEST_CASE("sng: the three sample songs read with the lengths their scores give")
     CHECK(s.warnings.size() == c.warnings);
     for (const auto &n : s.notes) CHECK(n.duration_s > 0);
   }
+}
+
+TEST_CASE("song files: a file larger than the bound is refused after reading at most the bound") {
+  const std::string path = std::string(STEPCHOIR_SCRATCH) + "/huge.mid";
+  std::ofstream(path) << "MThd";
+  std::filesystem::resize_file(path, kMaxSongFileBytes + 1);  // sparse: no disk used
+  try {
+    read_song_file(path);
+    FAIL("read a file over the bound");
+  } catch (const SongError &e) {
+    CHECK(std::string(e.what()) == path + ": larger than 64 MiB; not a song file");
+  }
+  std::filesystem::remove(path);
+  CHECK_THROWS_WITH(read_song_file(std::string(STEPCHOIR_SONGS_DIR) + "/README.md"),
+                    Catch::StartsWith(std::string(STEPCHOIR_SONGS_DIR) + "/README.md: unknown song format"));
 }
