@@ -250,7 +250,7 @@ TEST_CASE("gcode: notes too fast for an axis are named, or folded by octaves") {
   round_trip(z, e, o);  // check() expects the folded notes' rates
 }
 
-TEST_CASE("gcode: chords in one voice: the highest note plays; notes never heard are counted") {
+TEST_CASE("gcode: chords in one voice: the highest note plays, notes never heard are counted") {
   const Song s = song_of({{0, 0, 2, 60}, {0, 0, 1, 64}, {0, 0.5, 0.25, 55}});
   const GcodePlan plan = plan_gcode(s, box(100, 100, 100), {});
   REQUIRE(plan.warnings.size() == 1);

@@ -67,7 +67,7 @@ TEST_CASE("stepchoir gcode: the sample songs on the Ender-3 and Prusa presets de
     }
 }
 
-TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out of four; all four with --extruder") {
+TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out of four, all four with --extruder") {
   smf::Track t;
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(0, {static_cast<uint8_t>(0x90 | ch), static_cast<uint8_t>(55 + 3 * ch), 100});
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(ch == 0 ? 960 : 0, {static_cast<uint8_t>(0x80 | ch), static_cast<uint8_t>(55 + 3 * ch), 0});

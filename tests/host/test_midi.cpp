@@ -101,7 +101,7 @@ TEST_CASE("midi: SMPTE division counts ticks in frames and ignores tempo") {
   CHECK(d.notes[0].duration_s == Approx(2997.0 / (30 * 30000.0 / 1001.0)));
 }
 
-TEST_CASE("midi: meta events, sysex, pressure and bend are skipped; running status survives none of them") {
+TEST_CASE("midi: meta events, sysex, pressure and bend are skipped, and running status survives none of them") {
   Track t;
   t.ev(0, {0xFF, 0x03, 5, 'p', 'i', 'a', 'n', 'o'});           // track name
   t.ev(0, {0xF0, 4, 0x7E, 0x7F, 0x09, 0xF7});                     // GM on
@@ -128,7 +128,7 @@ TEST_CASE("midi: overlapping notes of one pitch end first in, first out") {
   CHECK(int{s.notes[1].velocity} == 90);
 }
 
-TEST_CASE("midi: notes left sounding end at End of Track; stray note-offs and unknown chunks are warnings") {
+TEST_CASE("midi: notes left sounding end at End of Track, stray note-offs and unknown chunks are warnings") {
   Track t;
   t.ev(0, {0x80, 50, 0}).ev(0, {0x90, 61, 100}).end(200);
   smf::Bytes f = smf::file(0, 100, {t});

@@ -89,7 +89,7 @@ TEST_CASE("sng: a trailing rest counts in the song's length") {
   CHECK(s.duration_s == Approx(4.0));
 }
 
-TEST_CASE("sng: a CHANNELS line that disagrees is a warning naming its line; every block is read") {
+TEST_CASE("sng: a CHANNELS line that disagrees is a warning naming its line, and every block is read") {
   const Song s = read_sng("TEMPO 60\nCHANNELS 1\nBEGINCH 0\nA 4 1\nENDCH 0\nBEGINCH 1\nB 4 1\nENDCH 1\n", "t.sng");
   CHECK(s.notes.size() == 2);
   REQUIRE(s.warnings.size() == 1);
