@@ -10,6 +10,7 @@ PACKAGES=(
   catch2                                          # tests (Catch2 v2)
   libcli11-dev libspdlog-dev libserialport-dev    # host
   libpng-dev                                      # piano-roll pictures
+  midicsv abcmidi                                 # song tests: MIDI files to check the reader against
 )
 
 missing=()

@@ -1,4 +1,4 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, gcode.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -10,6 +10,7 @@
 #include "board.h"
 #include "link.h"
 #include "pitch.h"
+#include "song/gcode_command.h"
 
 namespace {
 
@@ -114,8 +115,10 @@ int main(int argc, char **argv) {
   tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
 
   app.add_subcommand("ports", "List serial ports");
+  const auto gcode = stepchoir::add_gcode_command(app);
 
   CLI11_PARSE(app, argc, argv);
+  if (app.got_subcommand(gcode->app)) return gcode->run();
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 

@@ -1,0 +1,69 @@
+// song.h: a song as the players and the G-code writer see it (notes in absolute seconds), and
+// the readers of song files (.sng and Standard MIDI Files) that build one.
+#ifndef STEPCHOIR_HOST_SONG_SONG_H
+#define STEPCHOIR_HOST_SONG_SONG_H
+
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace stepchoir {
+
+// One note of a song: when it starts and how long it lasts, in seconds from the song's start.
+struct SongNote {
+  double onset_s = 0;      // start, seconds from the start of the song
+  double duration_s = 0;   // length in seconds, > 0
+  uint8_t midi_note = 0;   // 0-127, 69 = A4
+  uint8_t velocity = 0;    // 1-127 (a .sng note has 100)
+  uint16_t track = 0;      // MIDI: track index; .sng: BEGINCH block index (0-based, file order)
+  uint8_t channel = 0;     // MIDI: channel 0-15; .sng: 0
+};
+
+// A whole song. Notes are sorted by onset, then track, channel and note.
+struct Song {
+  std::vector<SongNote> notes;
+  double duration_s = 0;              // end of the last note or rest
+  uint16_t track_count = 0;           // MIDI: tracks in the file; .sng: BEGINCH blocks
+  std::vector<std::string> warnings;  // things accepted but worth telling the user (file:line: ...)
+};
+
+// A song file that cannot be read: what() names the file and where (line, or byte offset and
+// chunk) and what was expected.
+class SongError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Velocity given to every .sng note (the format has none).
+constexpr uint8_t kSngVelocity = 100;
+
+// Reads a music2gcode song (.sng) from text; name is used in messages. Called by read_song_file
+// and the tests. Throws SongError.
+Song read_sng(std::string_view text, const std::string &name);
+
+// Reads a Standard MIDI File (format 0 or 1) from bytes; name is used in messages. Called by
+// read_song_file and the tests. Never allocates more than a small multiple of size. Throws
+// SongError.
+Song read_midi(const uint8_t *data, size_t size, const std::string &name);
+
+// Largest song file the readers accept, in bytes (a bound on memory, far above real songs).
+constexpr size_t kMaxSongFileBytes = 64u << 20;
+
+// Reads a song file, picking the reader by content (MIDI starts with "MThd") or by the .sng
+// extension. Called by the `stepchoir gcode` command. Throws SongError.
+Song read_song_file(const std::string &path);
+
+// Sorts notes by onset (then track, channel, note) and sets duration_s to at least the last
+// note's end. Called by the readers.
+void finish_song(Song &song, double end_s);
+
+// Splits a line into its words (separated by spaces, tabs, CR). Called by the .sng reader and
+// the printer preset reader.
+std::vector<std::string_view> split_words(std::string_view line);
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_SONG_SONG_H

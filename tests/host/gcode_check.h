@@ -1,0 +1,208 @@
+// gcode_check.h: decodes stepchoir's G-code back into moves and times, and checks it against the
+// song it came from (step rates, segment times, volume, directions, last note). Used by the
+// G-code unit tests and the end-to-end test of `stepchoir gcode`.
+#ifndef STEPCHOIR_TESTS_GCODE_CHECK_H
+#define STEPCHOIR_TESTS_GCODE_CHECK_H
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "pitch.h"
+#include "song/gcode.h"
+#include "song/song.h"
+
+namespace gcheck {
+
+using namespace stepchoir;
+
+// One decoded line of the song part: a move or a dwell, with when it starts and how long it lasts.
+struct Move {
+  bool dwell = false;
+  double from[kGcodeAxes] = {0, 0, 0, 0}, to[kGcodeAxes] = {0, 0, 0, 0};
+  double feed_mm_min = 0, start_s = 0, duration_s = 0;
+};
+
+// What a G-code text says.
+struct Decoded {
+  bool homed = false, millimetres = false, absolute = false, cold_extrusion = false;
+  double start[kGcodeAxes] = {0, 0, 0, 0};  // position when the song starts
+  std::vector<Move> moves;
+  double end_s = 0;
+};
+
+// Decodes G0/G1 (X Y Z E F, modal), G4 P, G21, G90, G28, G92 E0, M302 P; the song is between
+// "; song starts" and "; song ends". A move lasts its X/Y/Z distance over the feed, or its E
+// distance when only E moves (as Marlin and Klipper time them). Called by the tests.
+inline Decoded decode(const std::string &text) {
+  Decoded d;
+  std::istringstream in(text);
+  std::string line;
+  double pos[kGcodeAxes] = {0, 0, 0, 0}, feed = 0, t = 0;
+  bool in_song = false, ended = false;
+  while (std::getline(in, line)) {
+    if (line == "; song starts") {
+      in_song = true;
+      std::copy(pos, pos + kGcodeAxes, d.start);
+    }
+    if (line == "; song ends") ended = true, in_song = false;
+    std::istringstream words(line.substr(0, line.find(';')));
+    std::string w;
+    if (!(words >> w)) continue;
+    if (w == "G21") d.millimetres = true;
+    else if (w == "G90") d.absolute = true;
+    else if (w == "G28") d.homed = true;
+    else if (w == "G92") pos[kExtruderAxis] = 0;
+    else if (w == "M302") {
+      words >> w;
+      d.cold_extrusion = w == "P1";
+    }
+    else if (w == "G4") {
+      std::string p;
+      words >> p;
+      REQUIRE(p[0] == 'P');
+      Move m;
+      m.dwell = true;
+      m.start_s = t;
+      m.duration_s = std::stod(p.substr(1)) / 1000.0;
+      std::copy(pos, pos + kGcodeAxes, m.from);
+      std::copy(pos, pos + kGcodeAxes, m.to);
+      t += m.duration_s;
+      if (in_song) d.moves.push_back(m);
+    } else if (w == "G0" || w == "G1") {
+      Move m;
+      std::copy(pos, pos + kGcodeAxes, m.from);
+      while (words >> w) {
+        const double v = std::stod(w.substr(1));
+        if (w[0] == 'F') feed = v;
+        for (size_t a = 0; a < kGcodeAxes; ++a)
+          if (w[0] == kAxisNames[a]) pos[a] = v;
+      }
+      std::copy(pos, pos + kGcodeAxes, m.to);
+      double dist = 0;
+      for (size_t a = 0; a < kCartesianAxes; ++a) dist += (m.to[a] - m.from[a]) * (m.to[a] - m.from[a]);
+      if (dist == 0) dist = (m.to[kExtruderAxis] - m.from[kExtruderAxis]) * (m.to[kExtruderAxis] - m.from[kExtruderAxis]);
+      REQUIRE(feed > 0);
+      m.feed_mm_min = feed;
+      m.start_s = t;
+      m.duration_s = std::sqrt(dist) / feed * 60.0;
+      if (in_song) {
+        t += m.duration_s;
+        d.moves.push_back(m);
+      }
+    }
+  }
+  CHECK(ended);
+  d.end_s = t;
+  return d;
+}
+
+// The note a voice's axis should play at time t: the highest sounding note of the voice, folded
+// by octaves under max_feed_mm_s when fold is set; -1 when silent. Called by check.
+inline int expected_note(const Song &song, const Voice &v, double t, const PrinterAxis &ax, double spc, bool fold) {
+  int best = -1;
+  for (const auto &n : song.notes)
+    if (n.track == v.track && n.channel == v.channel && n.onset_s <= t && t < n.onset_s + n.duration_s)
+      best = std::max(best, int{n.midi_note});
+  if (best >= 0 && fold && ax.max_feed_mm_s > 0)
+    while (best >= 12 && note_hz(best) * spc / ax.steps_per_mm > ax.max_feed_mm_s) best -= 12;
+  return best;
+}
+
+// Tolerances: dwells are written in whole milliseconds (the rounding is carried, so a time is
+// never more than half of one off, and a stretch between two times at most one), plus float dust;
+// coordinates have 5 decimals.
+constexpr double kTimeTolS = 1e-3 + 1e-9;
+constexpr double kRateTol = 1e-3;  // 0.1 %
+
+// What is wrong with decoded G-code against the song (empty: nothing): every stretch of the
+// score between two changes of any voice must last what the score says and each axis must step
+// at its note's rate within 0.1 % (silent axes do not move); every coordinate inside the volume;
+// notes start toward the border with more room; the song ends with its last note. Called by
+// check and the test that shows it finds broken G-code.
+inline std::vector<std::string> problems(const Decoded &d, const Song &song, const Printer &printer,
+                                         const std::vector<Voice> &axis_voice, double spc, bool fold = false) {
+  std::vector<std::string> out;
+  auto expect = [&](bool ok, const std::string &what) {
+    if (!ok) out.push_back(what);
+  };
+  std::vector<double> times;
+  for (const auto &n : song.notes)
+    for (const auto &v : axis_voice)
+      if (n.track == v.track && n.channel == v.channel) times.push_back(n.onset_s), times.push_back(n.onset_s + n.duration_s);
+  times.push_back(0);
+  std::sort(times.begin(), times.end());
+  std::vector<double> cuts;
+  for (double t : times)
+    if (cuts.empty() || t - cuts.back() > 1e-6) cuts.push_back(t);
+  // The song ends with its last note: the G-code lasts until the last note of the chosen voices ends.
+  expect(std::fabs(d.end_s - cuts.back()) <= kTimeTolS,
+         "the G-code lasts " + std::to_string(d.end_s) + " s, the score " + std::to_string(cuts.back()) + " s");
+  for (size_t k = 0; k < d.moves.size(); ++k)
+    for (size_t a = 0; a < kGcodeAxes; ++a)
+      expect(d.moves[k].to[a] >= printer.axes[a].min_mm - 1e-9 && d.moves[k].to[a] <= printer.axes[a].max_mm + 1e-9,
+             "move " + std::to_string(k) + ": " + kAxisNames[a] + std::to_string(d.moves[k].to[a]) + " outside the volume");
+  size_t i = 0;
+  for (size_t s = 0; s + 1 < cuts.size(); ++s) {
+    const double t0 = cuts[s], t1 = cuts[s + 1], mid = (t0 + t1) / 2;
+    const std::string where = "segment " + std::to_string(s) + " (" + std::to_string(t0) + " s to " + std::to_string(t1) + " s)";
+    if (i >= d.moves.size()) {
+      out.push_back(where + ": no G-code left");
+      break;
+    }
+    expect(std::fabs(d.moves[i].start_s - t0) <= kTimeTolS,
+           where + ": starts at " + std::to_string(d.moves[i].start_s) + " s in the G-code");
+    double travelled[kGcodeAxes] = {0, 0, 0}, duration = 0;
+    const size_t first = i;
+    while (i < d.moves.size() && d.moves[i].start_s < t1 - kTimeTolS) {
+      for (size_t a = 0; a < kGcodeAxes; ++a) travelled[a] += std::fabs(d.moves[i].to[a] - d.moves[i].from[a]);
+      duration += d.moves[i].duration_s;
+      ++i;
+    }
+    expect(std::fabs(duration - (t1 - t0)) <= kTimeTolS, where + ": lasts " + std::to_string(duration) + " s");
+    for (size_t a = 0; a < kGcodeAxes; ++a) {
+      const std::string axis = where + ", " + kAxisNames[a];
+      const PrinterAxis &ax = printer.axes[a];
+      const int note = a < axis_voice.size() ? expected_note(song, axis_voice[a], mid, ax, spc, fold) : -1;
+      if (note < 0) {
+        expect(travelled[a] == 0, axis + ": silent, but moves " + std::to_string(travelled[a]) + " mm");
+        continue;
+      }
+      const double want_steps_s = note_hz(note) * spc;
+      const double got_steps_s = travelled[a] * ax.steps_per_mm / duration;
+      expect(std::fabs(got_steps_s / want_steps_s - 1) <= kRateTol,
+             axis + ": " + note_name(note) + " wants " + std::to_string(want_steps_s) + " steps/s, the G-code makes " +
+                 std::to_string(got_steps_s));
+      // A note starting here (the voice's top note has its onset here) heads for the border with
+      // more room.
+      const int top = expected_note(song, axis_voice[a], mid, ax, spc, false);
+      bool starts = false;
+      for (const auto &n : song.notes)
+        starts = starts || (n.track == axis_voice[a].track && n.channel == axis_voice[a].channel &&
+                            n.midi_note == top && std::fabs(n.onset_s - t0) < 1e-6);
+      const double p = d.moves[first].from[a], up = ax.max_mm - p, down = p - ax.min_mm;
+      if (starts && std::fabs(up - down) > 1e-3) {
+        const double step = d.moves[first].to[a] - d.moves[first].from[a];
+        expect(up > down ? step > 0 : step < 0, axis + ": the note starts toward the border with less room");
+      }
+    }
+  }
+  expect(i == d.moves.size(), std::to_string(d.moves.size() - i) + " G-code lines after the score's end");
+  return out;
+}
+
+// Fails the current test with each problem of the G-code. Called by the tests.
+inline void check(const Decoded &d, const Song &song, const Printer &printer, const std::vector<Voice> &axis_voice,
+                  double spc, bool fold = false) {
+  const auto found = problems(d, song, printer, axis_voice, spc, fold);
+  for (const auto &p : found) FAIL_CHECK(p);
+  CHECK(found.empty());
+}
+
+}  // namespace gcheck
+
+#endif  // STEPCHOIR_TESTS_GCODE_CHECK_H

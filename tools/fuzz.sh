@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# fuzz.sh: builds the song readers' libFuzzer targets with clang (AddressSanitizer and
+# UndefinedBehaviorSanitizer) in build-fuzz/ and runs each for SECONDS (default 30).
+# Usage: tools/fuzz.sh [SECONDS] [TARGET...]     targets: fuzz_sng fuzz_midi (default both)
+# Seeds come from tests/fuzz/corpus/<kind>/ and the sample songs (read only); new inputs collect in
+# build-fuzz/corpus/<target>/, crashes in build-fuzz/artifacts/. Exits non-zero on a crash.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-30}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_sng fuzz_midi)
+
+tools/deps.sh
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTEPCHOIR_FIRMWARE=OFF \
+  -DSTEPCHOIR_FUZZ=ON > build-fuzz.log
+nice cmake --build build-fuzz -j2 --target "${targets[@]}" >> build-fuzz.log
+rm -f build-fuzz.log
+mkdir -p build-fuzz/artifacts
+declare -A extra_seeds=([sng]=tests/data/songs)  # the sample songs seed the .sng target too
+for t in "${targets[@]}"; do
+  kind=${t#fuzz_}
+  mkdir -p "build-fuzz/corpus/$t"
+  echo "fuzz.sh: $t for ${seconds} s"
+  rc=0
+  "build-fuzz/bin/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
+    -dict="tests/fuzz/$kind.dict" -artifact_prefix="build-fuzz/artifacts/$t-" \
+    "build-fuzz/corpus/$t" "tests/fuzz/corpus/$kind" ${extra_seeds[$kind]:-} > "build-fuzz/$t.log" 2>&1 || rc=$?
+  grep -E "^(stat::(number_of_executed_units|new_units_added|peak_rss_mb)|==[0-9]+==|SUMMARY)" "build-fuzz/$t.log" || true
+  [ "$rc" -eq 0 ] || { echo "fuzz.sh: $t failed (exit $rc): see build-fuzz/$t.log and build-fuzz/artifacts/"; exit 1; }
+done
+echo "fuzz.sh: no crash"
