@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# fuzz.sh: builds the song readers' libFuzzer targets with clang (AddressSanitizer and
+# fuzz.sh: builds the libFuzzer targets with clang (AddressSanitizer and
 # UndefinedBehaviorSanitizer) in build-fuzz/ and runs each for SECONDS (default 30).
-# Usage: tools/fuzz.sh [SECONDS] [TARGET...]     targets: fuzz_sng fuzz_midi (default both)
+# Usage: tools/fuzz.sh [SECONDS] [TARGET...]
+#   targets: fuzz_sng fuzz_midi (song readers), fuzz_firmware (the firmware's frame decoder and
+#   command handlers, host build), fuzz_replies (the host's reply parsers); default all four.
 # Seeds come from tests/fuzz/corpus/<kind>/ and the sample songs (read only); new inputs collect in
 # build-fuzz/corpus/<target>/, crashes in build-fuzz/artifacts/. Exits non-zero on a crash.
 set -euo pipefail
@@ -9,7 +11,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_sng fuzz_midi)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_sng fuzz_midi fuzz_firmware fuzz_replies)
 
 tools/deps.sh
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTEPCHOIR_FIRMWARE=OFF \
@@ -23,8 +25,10 @@ for t in "${targets[@]}"; do
   mkdir -p "build-fuzz/corpus/$t"
   echo "fuzz.sh: $t for ${seconds} s"
   rc=0
+  dict=()
+  [ -f "tests/fuzz/$kind.dict" ] && dict=(-dict="tests/fuzz/$kind.dict")
   "build-fuzz/bin/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
-    -dict="tests/fuzz/$kind.dict" -artifact_prefix="build-fuzz/artifacts/$t-" \
+    "${dict[@]}" -artifact_prefix="build-fuzz/artifacts/$t-" \
     "build-fuzz/corpus/$t" "tests/fuzz/corpus/$kind" ${extra_seeds[$kind]:-} > "build-fuzz/$t.log" 2>&1 || rc=$?
   grep -E "^(stat::(number_of_executed_units|new_units_added|peak_rss_mb)|==[0-9]+==|SUMMARY)" "build-fuzz/$t.log" || true
   [ "$rc" -eq 0 ] || { echo "fuzz.sh: $t failed (exit $rc): see build-fuzz/$t.log and build-fuzz/artifacts/"; exit 1; }

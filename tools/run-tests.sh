@@ -1,14 +1,34 @@
 #!/usr/bin/env bash
 # run-tests.sh: installs dependencies, configures into build/, builds everything (host,
-# firmware for both boards, virtual board), then runs every test under ctest.
+# firmware for both boards, virtual board), then runs every test under ctest; then the host
+# and unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/), and
+# each libFuzzer target for a bounded time (tools/fuzz.sh; longer runs: tools/fuzz.sh 600).
+# Options are passed to the first ctest runs (e.g. -R pattern). STEPCHOIR_QUICK=1 skips the
+# sanitizer and fuzzing stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 tools/deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTEPCHOIR_FIRMWARE=ON
 cmake --build build -j"$(nproc)"
-cd build
-# Unit and tool tests run once. The end-to-end tests on the virtual board get one rerun: the
-# full-line-speed pitch tests show a rare late step (docs/ARCHITECTURE.md, being chased).
-ctest --output-on-failure -j"$(nproc)" -LE e2e "$@"
-ctest --output-on-failure -L e2e --repeat until-pass:2 "$@"
+(
+  cd build
+  # Unit and tool tests run once. The end-to-end tests on the virtual board get one rerun: the
+  # full-line-speed pitch tests show a rare late step (docs/ARCHITECTURE.md, being chased).
+  ctest --output-on-failure -j"$(nproc)" -LE e2e "$@"
+  ctest --output-on-failure -L e2e --repeat until-pass:2 "$@"
+)
+[ "${STEPCHOIR_QUICK:-0}" = 1 ] && exit 0
+
+# Sanitizers: every native unit and tool test again, built with -fsanitize=address,undefined.
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTEPCHOIR_SANITIZE=address,undefined
+cmake --build build-asan -j"$(nproc)"
+(
+  cd build-asan
+  export LSAN_OPTIONS="suppressions=$PWD/../tests/sanitizers/lsan.supp"
+  export UBSAN_OPTIONS="print_stacktrace=1"
+  ctest --output-on-failure -j"$(nproc)" -LE e2e
+)
+
+# Fuzzing, bounded: each target 30 s; any crash, leak, hang or sanitizer report fails.
+tools/fuzz.sh 30
