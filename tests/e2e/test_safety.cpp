@@ -659,3 +659,54 @@ TEST_CASE("safety: uno stuck switch - the motor ignores it - reports it and keep
     CHECK((p <= 8 || p >= 3200 - 8));
   }
 }
+
+TEST_CASE("safety: mega host killed with SIGKILL mid-chord - every motor stops within the watchdog time") {
+  // Five `stepchoir tone` processes (the real host binary, heartbeats and all) each hold one
+  // motor of a chord; then all are killed at once with SIGKILL, the way a crash or the kernel
+  // would end them. From the board's trace: every motor's last step comes within the default
+  // watchdog time (plus one period) of the last frame that reached the board, and the drivers
+  // are disabled then.
+  const std::string trace_path = e2e::scratch("safety-sigkill-mega.csv");
+  e2e::StoppableVboard vb({"--board", "mega", "--seconds", "60", "--trace", trace_path, "--trace-frames", "--quiet"});
+  const std::string bin = std::string(STEPCHOIR_VBOARD).substr(0, std::string(STEPCHOIR_VBOARD).rfind('/'));
+  const double hz[] = {220.0, 277.18, 329.63, 440.0, 554.37};
+  std::vector<pid_t> hosts;
+  for (int m = 0; m < 5; ++m) {
+    // One process at a time on the link: each says hello, starts its note, then only sends
+    // heartbeats. Wait for the note before the next one opens the port.
+    const std::string motor = std::to_string(m), freq = std::to_string(hz[m]);
+    const char *argv[] = {"stepchoir", "tone",  "--port", vb.pty().c_str(), "--motor", motor.c_str(),
+                          "--hz",      freq.c_str(), nullptr};
+    pid_t pid = 0;
+    REQUIRE(posix_spawn(&pid, (bin + "/stepchoir").c_str(), nullptr, nullptr, const_cast<char **>(argv), environ) == 0);
+    hosts.push_back(pid);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (pid_t pid : hosts) kill(pid, SIGKILL);
+  for (pid_t pid : hosts) waitpid(pid, nullptr, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace t = tr::read_trace(trace_path);
+  REQUIRE(!t.frame_ends.empty());
+  const uint64_t last_frame = t.frame_ends.back();
+  const double watchdog_s = kDefaultWatchdogMs / 1000.0;
+  for (int m = 0; m < 5; ++m) {
+    INFO("motor " << m);
+    REQUIRE(t.motor[m].steps.size() > 20);  // it was playing
+    const uint64_t last_step = t.motor[m].steps.back().rise_cycle;
+    const double after_s = (double(last_step) - double(last_frame)) / t.f_cpu_hz;
+    INFO("last step " << after_s * 1000 << " ms after the last frame");
+    CHECK(after_s > watchdog_s - 1.0 / hz[m] - 0.002);  // it played on until the watchdog
+    CHECK(after_s <= watchdog_s + 1.0 / hz[m]);          // and stopped then
+    std::printf("sigkill mega motor %d: last step %.1f ms after the last frame\n", m, after_s * 1000);
+  }
+  // The shared enables go off (high: RAMPS enables are active low) once the watchdog fires.
+  bool disabled = false;
+  for (int m = 0; m < 5; ++m)
+    for (const auto &e : t.motor[m].enables)
+      disabled = disabled || (e.cycle > last_frame && e.value == 1 &&
+                              (double(e.cycle) - double(last_frame)) / t.f_cpu_hz <= watchdog_s + 0.001);
+  CHECK(disabled);
+}

@@ -47,6 +47,8 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
                      "dir,0,2000000,0,3200,\n"
                      "endstop,0,2000100,1,3200,\n"
                      "bounce,0,2000150,0,3200,\n"
+                     "frame,0,2000300,0,,\n"
+                     "frame,0,2000400,0,,\n"
                      "# a free comment\n"
                      "# end cycle=160000000\n"
                      "# summary motor=0 steps=2 reversals=0\n"
@@ -79,6 +81,7 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
   REQUIRE(t.motor[0].enables.size() == 1);
   CHECK(t.motor[0].enables[0].cycle == 5u);
   CHECK_FALSE(t.motor[0].enables[0].has_position);
+  CHECK(t.frame_ends == std::vector<uint64_t>{2000300u, 2000400u});
   CHECK(t.has_end);
   CHECK(t.end_cycle == 160000000u);
   REQUIRE(t.summary_lines.size() == 2);
@@ -138,6 +141,9 @@ TEST_CASE("malformed rows fail with file:line and a reason", "[trace][errors]") 
              Catch::StartsWith("trace.csv:4: step row for motor 1 at cycle 400 is before"));
   CHECK_THAT(parse_error(head + "dir,1,500,1,1,\ndir,1,499,0,1,\n"),
              Catch::StartsWith("trace.csv:4: dir row for motor 1"));
+  CHECK_THAT(parse_error(head + "frame,0,500,0,,\nframe,0,499,0,,\n"),
+             Catch::StartsWith("trace.csv:4: frame row at cycle 499 is before"));
+  CHECK_THAT(parse_error(head + "frame,0,x,0,,\n"), Catch::StartsWith("trace.csv:3: bad cycle 'x'"));
   CHECK_THAT(parse_error(head + "# end cycle=abc\n"), Catch::StartsWith("trace.csv:3: bad end cycle"));
   CHECK_THAT(parse_error(head + kHeader), Catch::StartsWith("trace.csv:3: second header"));
   CHECK_THAT(parse_error(head + "event,motor,cycle\n"), Catch::StartsWith("trace.csv:3: unexpected column line"));

@@ -201,6 +201,15 @@ void Parser::parse_row(std::string_view line) {
   if (count != kFieldCount)
     fail("expected " + std::to_string(kFieldCount) + " fields, got " + std::to_string(count));
 
+  std::string_view event = field[kEvent];
+  if (event == "frame") {
+    const uint64_t cycle = parse_unsigned<uint64_t>(field[kCycle], "cycle");
+    if (!trace_.frame_ends.empty() && cycle < trace_.frame_ends.back())
+      fail("frame row at cycle " + std::to_string(cycle) + " is before the previous one");
+    if (cycle > last_cycle_) last_cycle_ = cycle;
+    trace_.frame_ends.push_back(cycle);
+    return;
+  }
   uint64_t motor64 = parse_unsigned<uint64_t>(field[kMotor], "motor");
   if (motor64 >= uint64_t(trace_.motors))
     fail("motor " + std::to_string(motor64) + " out of range (motors=" +
@@ -209,7 +218,6 @@ void Parser::parse_row(std::string_view line) {
   MotorTrace& m = trace_.motor[size_t(motor)];
   uint64_t cycle = parse_unsigned<uint64_t>(field[kCycle], "cycle");
   if (cycle > last_cycle_) last_cycle_ = cycle;
-  std::string_view event = field[kEvent];
 
   if (event == "step") {
     Step s;
@@ -236,7 +244,7 @@ void Parser::parse_row(std::string_view line) {
   else if (event == "endstop") push_level(m.endstop_changes, c, "endstop", motor);
   else if (event == "bounce") push_level(m.bounces, c, "bounce", motor);
   else if (event == "enable") push_level(m.enables, c, "enable", motor);
-  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce or enable)");
+  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce, enable or frame)");
 }
 
 Trace Parser::run(std::string_view text) {

@@ -8,6 +8,8 @@
 //   endstop,0,2000100,1,3200,     logical switch change (1 = pressed)
 //   bounce,0,2000150,0,3200,      one chatter toggle (pin level)
 //   enable,0,5,0,,                ENABLE pin change (level)
+//   frame,0,2000300,0,,           a host frame's last byte (its delimiter) reached the UART
+//                                 (with stepchoir-vboard --trace-frames; motor and value unused)
 //   # end cycle=160000000
 //   # summary motor=0 steps=1234 ...
 // Within one motor and one event kind the rows are in cycle order; read_trace checks that.
@@ -60,6 +62,7 @@ struct Trace {
   uint64_t end_cycle = 0;        // from "# end cycle=N", else the last cycle seen
   bool has_end = false;          // true when the "# end" line was present
   std::vector<MotorTrace> motor;          // motors entries
+  std::vector<uint64_t> frame_ends;       // cycles of "frame" rows, in order (--trace-frames)
   std::vector<std::string> summary_lines; // "summary ..." comment lines, without the leading "# "
 
   // Board time of a cycle: cycle / f_cpu.

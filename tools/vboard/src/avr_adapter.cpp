@@ -441,6 +441,7 @@ uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
     self->fix_uart_timing();
     avr_raise_irq(self->uart_input_irq_, byte);
     ++self->uart_in_bytes_;
+    if (byte == 0 && self->frame_trace_) self->frame_trace_->frame_end(avr->cycle);
   } else if (deliver) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
   }

@@ -39,6 +39,8 @@ class AvrAdapter : public SwitchPinDriver {
   void set_profiler(CpuProfiler *profiler) { profiler_ = profiler; }
   // Applies faults to every host byte (nullptr = a clean line). Must outlive the adapter.
   void set_line_noise(LineNoise *noise) { noise_ = noise; }
+  // Writes a trace row whenever a frame delimiter (0x00) reaches UART0 (nullptr = none).
+  void set_frame_trace(TraceWriter *trace) { frame_trace_ = trace; }
 
   // Flash size in bytes.
   uint32_t flash_bytes() const;
@@ -108,6 +110,7 @@ class AvrAdapter : public SwitchPinDriver {
   PtyLink &link_;
   CpuProfiler *profiler_ = nullptr;
   LineNoise *noise_ = nullptr;
+  TraceWriter *frame_trace_ = nullptr;
   int repeat_byte_ = -1;  // a duplicated host byte still to deliver, or -1
   avr_t *avr_ = nullptr;
   void *uart_ = nullptr;  // avr_uart_t of UART0

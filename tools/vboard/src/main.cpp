@@ -239,6 +239,7 @@ int run(const Options &options, FILE *real_stdout) {
   rates.duplicate = options.line_duplicate;
   LineNoise noise(rates, options.seed);
   avr.set_line_noise(&noise);
+  if (options.trace_frames) avr.set_frame_trace(&trace);
   if (!avr.load(elf_path, error)) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;

@@ -39,7 +39,7 @@ const char *usage_text() {
          "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
-         "          [--no-measure] [--quiet]\n"
+         "          [--trace-frames] [--no-measure] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
          "  --link PATH         symlink to the pty, removed on exit\n"
@@ -55,6 +55,7 @@ const char *usage_text() {
          "  --line-drop P       line noise: each host byte is lost with probability P (0-0.5)\n"
          "  --line-corrupt P    ... has one or more bits flipped with probability P\n"
          "  --line-duplicate P  ... arrives twice with probability P\n"
+         "  --trace-frames      also trace when each host frame's last byte reaches the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --quiet             no summary on stderr\n";
 }
@@ -154,6 +155,8 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
       }
       (arg == "--line-drop" ? options.line_drop : arg == "--line-corrupt" ? options.line_corrupt
                                                                          : options.line_duplicate) = rate;
+    } else if (arg == "--trace-frames") {
+      options.trace_frames = true;
     } else if (arg == "--quiet") {
       options.quiet = true;
     } else if (arg == "--no-measure") {

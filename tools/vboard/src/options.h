@@ -24,6 +24,7 @@ struct Options {
   int stuck_switch_motor = -1;  // --stuck-switch M: motor M's switches stay pressed
   uint64_t seed = 1;
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
+  bool trace_frames = false;  // a trace row for every host frame's delimiter
   bool quiet = false;
   bool measure = true;
   bool help = false;

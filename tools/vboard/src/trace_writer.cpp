@@ -101,6 +101,13 @@ void TraceWriter::enable(unsigned motor, uint64_t cycle, bool level) {
   end_row();
 }
 
+void TraceWriter::frame_end(uint64_t cycle) {
+  if (!file_) return;
+  row_prefix("frame", 0, cycle, false);
+  put_char(',');
+  end_row();
+}
+
 // Writes the buffer out.
 void TraceWriter::flush() {
   if (!file_) return;

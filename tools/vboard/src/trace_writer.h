@@ -42,6 +42,8 @@ class TraceWriter {
   void bounce(unsigned motor, uint64_t cycle, bool pin_level, int64_t position_steps);
   // enable,m,CYCLE,LEVEL,,
   void enable(unsigned motor, uint64_t cycle, bool level);
+  // frame,0,CYCLE,0,, : a host frame's delimiter reached the UART.
+  void frame_end(uint64_t cycle);
 
   // Rows written so far.
   uint64_t rows() const { return rows_; }

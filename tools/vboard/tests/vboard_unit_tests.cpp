@@ -132,6 +132,7 @@ TEST_CASE("trace writer formats header and rows") {
     t.endstop(2, 9, true, 3200);
     t.bounce(2, 10, false, 3200);
     t.enable(3, 0, true);
+    t.frame_end(12);
     t.comment("end cycle=11");
     t.flush();
   }
@@ -143,6 +144,7 @@ TEST_CASE("trace writer formats header and rows") {
         "endstop,2,9,1,3200,\n"
         "bounce,2,10,0,3200,\n"
         "enable,3,0,1,,\n"
+        "frame,0,12,0,,\n"
         "# end cycle=11\n");
   std::fclose(stream);
 }
