@@ -38,10 +38,10 @@ static const uint16_t kRescheduleTicks = 400;
 // UART receive ISR: 67 cycles measured) plus a wait-loop pass.
 static const uint8_t kCliLeadTicks = 64;
 
-// Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, but
-// never longer than this (ticks): an edge that would keep them off longer is raised at once,
-// up to kCliLeadTicks early. Three motors due within about 8 us of each other are needed for that.
-static const uint8_t kMaxOffTicks = 80;
+// Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, but a
+// wait that would keep them off longer than this (ticks) lets a waiting UART byte in first
+// (its ISR takes up to 54 cycles, so that edge may then be late).
+static const uint8_t kMaxOffTicks = 100;
 
 // An edge due less than this (ticks) after the previous one in a burst is raised right after
 // it, without a wait, and the previous one that much later: both within 1.6 us of their ticks,

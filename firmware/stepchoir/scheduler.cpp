@@ -110,11 +110,11 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
 // port and mask are loaded before its wait, so between two raises only a tick compare and the
 // port write remain (about 45 cycles). An edge due less than kMergeTicks after the previous one
-// is raised right after it, without a wait, and the previous one waits half the gap longer. Interrupts are off from kCliLeadTicks before a
-// raise until it is done, and stay off into the next raise when that one is closer than
-// kCliLeadTicks, unless they have been off kMaxOffTicks already: then that edge is raised at
-// once, a little early, so the UART is never kept waiting.
-// Cycles with interrupts off: at most kMaxOffTicks + one raise (about 45).
+// is raised right after it, without a wait, and the previous one waits half the gap longer.
+// Interrupts are off from kCliLeadTicks before a raise until it is done, and stay off into the
+// next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
+// off longer than kMaxOffTicks: then a waiting UART byte is let in first.
+// Cycles with interrupts off: at most kMaxOffTicks + one raise and its merged followers (~70).
 __attribute__((noinline)) void burst() {
   const uint8_t active = g_active;
   uint8_t n = 1;
@@ -128,12 +128,6 @@ __attribute__((noinline)) void burst() {
   uint16_t off_since = 0, prev = 0;
   bool off = false;
   for (uint8_t i = 0; i < n; ++i) {
-    if (off && (uint16_t)(TCNT1 - off_since) > cfg::kMaxOffTicks) {  // let a waiting UART byte in
-      sei();
-      __asm__ __volatile__("nop");
-      cli();
-      off_since = TCNT1;
-    }
     Motor *m = g_order[i];
     const uint16_t t = (uint16_t)m->deadline;
     volatile uint8_t *const port = m->step_port;
@@ -156,15 +150,23 @@ __attribute__((noinline)) void burst() {
             ++low;                                                            // and nested ISRs keep off
           }
         }
+      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
+        sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
+        __asm__ __volatile__("nop");
+        off = false;
       }
       if (!off) {
         cli();
         off = true;
         off_since = TCNT1;
       }
-      if ((int16_t)(at - off_since) <= (int16_t)cfg::kMaxOffTicks)
-        while ((int16_t)(at - TCNT1) > 0) {
-        }
+      while ((int16_t)(at - TCNT1) > 0) {
+      }
+    } else if ((uint16_t)(TCNT1 - off_since) > cfg::kMaxOffTicks) {  // a merged follower, late
+      sei();                                                           // in a long chain: a
+      __asm__ __volatile__("nop");                                     // waiting UART byte first
+      cli();
+      off_since = TCNT1;
     }
     *port |= mask;
     raised[i] = TCNT1;
