@@ -10,6 +10,8 @@ PACKAGES=(
   catch2                                          # tests (Catch2 v2)
   libcli11-dev libspdlog-dev libserialport-dev    # host
   libpng-dev                                      # piano-roll pictures
+  librtmidi-dev libreaderwriterqueue-dev          # live: MIDI in, lock-free queues
+  jackd2 libjack-jackd2-dev                       # live: JACK (jackd2, not jack1: librtmidi-dev takes either)
 )
 
 missing=()

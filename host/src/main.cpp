@@ -1,4 +1,4 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -9,6 +9,7 @@
 
 #include "board.h"
 #include "link.h"
+#include "live_cli.h"
 #include "pitch.h"
 
 namespace {
@@ -113,7 +114,23 @@ int main(int argc, char **argv) {
   tone->add_option("--hz", hz, "Frequency in Hz (steps per second)")->required()->check(CLI::Range(0.0, 40000.0));
   tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
 
-  app.add_subcommand("ports", "List serial ports");
+  std::string ports_midi_api = "alsa";
+  auto *ports = app.add_subcommand("ports", "List serial ports and MIDI inputs");
+  ports->add_option("--midi-api", ports_midi_api, "MIDI API whose inputs to list")->check(CLI::IsMember({"alsa", "jack"}));
+
+  stepchoir::LiveOptions live_opt;
+  auto *live = app.add_subcommand("live", "Play the motors from a MIDI input (Ctrl-C silences them and ends)");
+  live->add_option("--midi", live_opt.midi, "MIDI input: index, part of its name, or virtual[:NAME]")
+      ->default_val(live_opt.midi);
+  live->add_option("--port,-p", live_opt.ports, "Board (repeat for several: their motors form one pool); "
+                                                "none: start the virtual board");
+  live->add_option("--policy", live_opt.policy, "Note allocation")
+      ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(live_opt.policy);
+  live->add_option("--midi-api", live_opt.midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))
+      ->default_val(live_opt.midi_api);
+  live->add_option("--vboard", live_opt.vboard_board, "Board the virtual board simulates (without --port)")
+      ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
+  live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
 
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, on_signal);
@@ -121,9 +138,12 @@ int main(int argc, char **argv) {
 
   try {
     if (app.got_subcommand("ports")) {
-      for (const auto &p : stepchoir::list_serial_ports()) std::printf("%s\n", p.c_str());
+      std::printf("serial ports:\n");
+      for (const auto &p : stepchoir::list_serial_ports()) std::printf("  %s\n", p.c_str());
+      stepchoir::print_midi_inputs(ports_midi_api);
       return 0;
     }
+    if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
     stepchoir::Board board(stepchoir::open_link(port));
     if (app.got_subcommand(hello)) {
       print_caps(board.hello());

@@ -1,0 +1,217 @@
+// live_cli.cpp: `stepchoir live`: opens the boards (or starts the virtual board), the MIDI
+// input and a LiveSession; shows one status line; silences everything on the way out.
+#include "live_cli.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <spdlog/async.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <climits>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "board.h"
+#include "live.h"
+#include "midi_in.h"
+
+extern char **environ;
+
+namespace stepchoir {
+namespace {
+
+// Called from: the status line. "C4", "F#5" for a MIDI note.
+std::string note_name(int note) {
+  static const char *const kNames[12] = {"C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B"};
+  return std::string(kNames[note % 12]) + std::to_string(note / 12 - 1);
+}
+
+// Called from: run_live. "poly" / "channel" / "mono" -> Policy.
+Policy parse_policy(const std::string &s) {
+  if (s == "poly") return Policy::kPoly;
+  if (s == "channel") return Policy::kChannel;
+  if (s == "mono") return Policy::kMono;
+  throw std::invalid_argument("--policy '" + s + "': expected poly, channel or mono");
+}
+
+// The virtual board as a child process, for `live` without --port. Stopped (SIGTERM) when
+// destroyed.
+class VirtualBoard {
+ public:
+  // Called from: run_live. Starts <dir of this program>/stepchoir-vboard on link_path and
+  // waits until the link exists; throws std::runtime_error when it cannot.
+  VirtualBoard(const std::string &board, const std::string &link_path) {
+    char self[PATH_MAX];
+    const ssize_t n = ::readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0) throw std::runtime_error("cannot find this program's directory");
+    self[n] = 0;
+    std::string dir(self);
+    path_ = dir.substr(0, dir.rfind('/')) + "/stepchoir-vboard";
+    std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet"};
+    std::vector<char *> argv;
+    for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    // Its own process group: Ctrl-C reaches this program only, which silences the motors
+    // first and then stops the board.
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attr, 0);
+    const int rc = posix_spawn(&pid_, path_.c_str(), &fa, &attr, argv.data(), environ);
+    posix_spawnattr_destroy(&attr);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) throw std::runtime_error("cannot start the virtual board " + path_);
+    struct stat st;
+    for (int i = 0; i < 200 && ::lstat(link_path.c_str(), &st) != 0; ++i) {
+      int status;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        throw std::runtime_error("the virtual board " + path_ + " exited at start");
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+  }
+  ~VirtualBoard() {
+    if (pid_ <= 0) return;
+    ::kill(pid_, SIGTERM);
+    int status;
+    waitpid(pid_, &status, 0);
+  }
+  VirtualBoard(const VirtualBoard &) = delete;
+  VirtualBoard &operator=(const VirtualBoard &) = delete;
+  const std::string &path() const { return path_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string path_;
+};
+
+// Called from: run_live, every 100 ms. The one status line: motors, link, latency.
+std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<Board>> &boards) {
+  std::string line;
+  for (size_t m = 0; m < s.motor_count(); ++m) {
+    const int note = s.motor_note(m);
+    line += "m" + std::to_string(m) + " " + (note < 0 ? std::string("--") : note_name(note)) + "  ";
+  }
+  const uint64_t now = monotonic_us();
+  for (size_t b = 0; b < s.board_count(); ++b) {
+    const BoardStats &st = s.board_stats(b);
+    const uint64_t seen = st.last_status_us.load();
+    const char *health = st.write_failed ? "WRITE FAILED"
+                         : st.read_failed ? "READ FAILED"
+                         : (seen && now - seen < 2500000) ? (st.watchdog_tripped ? "watchdog" : "ok")
+                                                          : "no answer";
+    line += "| " + boards[b]->link().name() + " " + health + ", " + std::to_string(st.frames_sent.load()) +
+            " frames, " + std::to_string(st.status_frames_bad.load()) + " bad ";
+  }
+  char lat[96];
+  std::snprintf(lat, sizeof lat, "| %llu events, latency p50 %llu us p99 %llu us",
+                static_cast<unsigned long long>(s.events()), static_cast<unsigned long long>(s.latency().percentile(0.5)),
+                static_cast<unsigned long long>(s.latency().percentile(0.99)));
+  return line + lat;
+}
+
+}  // namespace
+
+void print_midi_inputs(const std::string &midi_api) {
+  try {
+    const auto inputs = list_midi_inputs(parse_midi_api(midi_api));
+    std::printf("MIDI inputs (%s):%s\n", midi_api.c_str(), inputs.empty() ? " none" : "");
+    for (size_t i = 0; i < inputs.size(); ++i) std::printf("  %zu: %s\n", i, inputs[i].c_str());
+  } catch (const std::exception &e) {
+    std::printf("MIDI inputs (%s): unavailable: %s\n", midi_api.c_str(), e.what());
+  }
+}
+
+int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
+  spdlog::init_thread_pool(1024, 1);
+  auto log = spdlog::create_async<spdlog::sinks::stderr_color_sink_mt>("live");
+  log->set_pattern("stepchoir live: %^%l%$: %v");
+  const Policy policy = parse_policy(o.policy);
+  const MidiApi api = parse_midi_api(o.midi_api);
+
+  std::unique_ptr<VirtualBoard> vboard;
+  std::vector<std::string> ports = o.ports;
+  if (ports.empty()) {
+    const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
+    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link);
+    std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n",
+                o.vboard_board.c_str(), link.c_str());
+    ports.push_back(link);
+  }
+  std::vector<std::unique_ptr<Board>> boards;
+  std::vector<LiveBoard> pool;
+  for (const auto &p : ports) {
+    boards.push_back(std::make_unique<Board>(open_link(p)));
+    const Caps caps = boards.back()->hello();
+    pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
+  }
+  LiveSession session(pool, pool_config(pool, policy));
+  auto midi = std::make_unique<MidiIn>(api, o.midi, session.midi_queue());
+  session.start();
+  std::printf("live: MIDI %s (%s) -> %zu motors, policy %s; Ctrl-C to stop\n", midi->port_name().c_str(),
+              o.midi_api.c_str(), session.motor_count(), o.policy.c_str());
+  std::fflush(stdout);
+
+  int rc = 0;
+  uint64_t errors_logged = 0, dropped_logged = 0;
+  const bool tty = ::isatty(1);
+  auto last_print = std::chrono::steady_clock::now();
+  while (!stop.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    uint64_t errors = 0;
+    bool failed = false;
+    for (size_t b = 0; b < session.board_count(); ++b) {
+      errors += session.board_stats(b).board_errors.load();
+      failed = failed || session.board_stats(b).write_failed.load();
+    }
+    if (errors != errors_logged) {
+      log->warn("the boards reported {} errors (latest: {})", errors,
+                sc::error_name(session.board_stats(0).last_error.load()));
+      errors_logged = errors;
+    }
+    if (midi->dropped() != dropped_logged) {
+      dropped_logged = midi->dropped();
+      log->warn("{} MIDI events dropped: the engine fell behind", dropped_logged);
+    }
+    if (failed) {
+      log->error("a board's link failed; stopping");
+      rc = 1;
+      break;
+    }
+    if (o.quiet) continue;
+    const auto now = std::chrono::steady_clock::now();
+    if (tty) {
+      std::printf("\r%s\033[K", status_line(session, boards).c_str());
+      std::fflush(stdout);
+    } else if (now - last_print >= std::chrono::seconds(1)) {
+      std::printf("%s\n", status_line(session, boards).c_str());
+      std::fflush(stdout);
+      last_print = now;
+    }
+  }
+  midi.reset();  // no more callbacks
+  session.stop();
+  if (tty && !o.quiet) std::printf("\n");
+  std::printf("live: every motor silenced (%llu events, latency p50 %llu us, p99 %llu us, max %llu us)\n",
+              static_cast<unsigned long long>(session.events()),
+              static_cast<unsigned long long>(session.latency().percentile(0.5)),
+              static_cast<unsigned long long>(session.latency().percentile(0.99)),
+              static_cast<unsigned long long>(session.latency().max_us()));
+  std::fflush(stdout);
+  spdlog::shutdown();
+  return rc;
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,263 @@
+// test_live.cpp: the live path without a MIDI system or a board: message parsing, the
+// Coalescer, the latency histogram, and a LiveSession writing to a fake link.
+#include <catch2/catch.hpp>
+
+#include <chrono>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "live.h"
+#include "midi_in.h"
+#include "pitch.h"
+
+using namespace stepchoir;
+
+namespace {
+
+// A Link that keeps every byte written, optionally slow; reads time out with nothing.
+class FakeLink : public Link {
+ public:
+  explicit FakeLink(int write_delay_us = 0) : delay_us_(write_delay_us) {}
+  bool write(const uint8_t *data, size_t len) override {
+    if (delay_us_) std::this_thread::sleep_for(std::chrono::microseconds(delay_us_));
+    std::lock_guard<std::mutex> lock(mu_);
+    bytes_.insert(bytes_.end(), data, data + len);
+    return true;
+  }
+  long read(uint8_t *, size_t, int timeout_ms) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(timeout_ms, 5)));
+    return 0;
+  }
+  std::string name() const override { return "fake"; }
+  // Every frame written so far, decoded (payloads).
+  std::vector<std::vector<uint8_t>> frames() {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::vector<std::vector<uint8_t>> out;
+    sc::FrameDecoder dec;
+    for (uint8_t b : bytes_)
+      if (dec.push(b) == sc::kFrameOk) out.emplace_back(dec.payload(), dec.payload() + dec.payload_len());
+    return out;
+  }
+
+ private:
+  int delay_us_;
+  std::mutex mu_;
+  std::vector<uint8_t> bytes_;
+};
+
+// The set-period entries among payloads, in wire order.
+std::vector<sc::PeriodEntry> entries_of(const std::vector<std::vector<uint8_t>> &frames) {
+  std::vector<sc::PeriodEntry> out;
+  for (const auto &f : frames) {
+    if (!(f[0] & sc::kSetPeriodFlag)) continue;
+    for (size_t i = 0; i + sc::kSetPeriodBytes <= f.size(); i += sc::kSetPeriodBytes) {
+      sc::PeriodEntry e;
+      REQUIRE(sc::get_entry(&f[i], &e));
+      out.push_back(e);
+    }
+  }
+  return out;
+}
+
+// Periods motor m got, in order.
+std::vector<uint32_t> periods_of(const std::vector<sc::PeriodEntry> &entries, uint8_t m) {
+  std::vector<uint32_t> out;
+  for (const auto &e : entries)
+    if (e.motor == m) out.push_back(e.period_q8);
+  return out;
+}
+
+// Waits up to 10 s for cond; true when it held.
+template <class F>
+bool eventually(F cond) {
+  for (int i = 0; i < 1000; ++i) {
+    if (cond()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return cond();
+}
+
+const uint32_t kF = 16000000;
+
+}  // namespace
+
+TEST_CASE("live: raw MIDI messages become events, others are refused", "[live]") {
+  MidiEvent e{};
+  const unsigned char on[] = {0x93, 60, 100};
+  REQUIRE(parse_midi_message(on, 3, 42, &e));
+  CHECK(e.status == 0x93);
+  CHECK(e.data1 == 60);
+  CHECK(e.data2 == 100);
+  CHECK(e.timestamp_us == 42);
+  const unsigned char pc[] = {0xC0, 5};
+  REQUIRE(parse_midi_message(pc, 2, 0, &e));
+  CHECK(e.data2 == 0);
+  const unsigned char bend[] = {0xE1, 0x7F, 0x40};
+  REQUIRE(parse_midi_message(bend, 3, 0, &e));
+  CHECK(e.data1 == 0x7F);
+  const unsigned char short_on[] = {0x90, 60};
+  CHECK_FALSE(parse_midi_message(short_on, 2, 0, &e));
+  const unsigned char clock[] = {0xF8};
+  CHECK_FALSE(parse_midi_message(clock, 1, 0, &e));
+  const unsigned char sysex[] = {0xF0, 1, 2, 0xF7};
+  CHECK_FALSE(parse_midi_message(sysex, 4, 0, &e));
+  const unsigned char data_only[] = {0x40, 0x40};
+  CHECK_FALSE(parse_midi_message(data_only, 2, 0, &e));
+  CHECK_FALSE(parse_midi_message(on, 0, 0, &e));
+}
+
+TEST_CASE("live: the coalescer sends the latest state per motor", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  uint64_t us[Coalescer::kMaxMotors];
+  CHECK_FALSE(c.pending());
+  c.add({0, 1000000, 1});
+  c.add({0, 1100000, 2});  // a bend before the first went out
+  c.add({2, 900000, 3});
+  REQUIRE(c.pending());
+  CHECK(c.take_silences(out, us) == 0);
+  REQUIRE(c.take_latest(out, us) == 2);
+  CHECK(out[0].motor == 0);
+  CHECK(out[0].period_q8 == 1100000);
+  CHECK(us[0] == 2);
+  CHECK(out[1].motor == 2);
+  CHECK(out[1].period_q8 == 900000);
+  CHECK(c.coalesced() == 1);
+  CHECK_FALSE(c.pending());
+}
+
+TEST_CASE("live: the coalescer never drops a silence", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  uint64_t us[Coalescer::kMaxMotors];
+  c.add({1, 1000000, 1});
+  REQUIRE(c.take_latest(out, us) == 1);  // the note is on the wire
+  SECTION("note off, then the same note again: silence first, then the note") {
+    c.add({1, 0, 2});
+    c.add({1, 1000000, 3});
+    REQUIRE(c.take_silences(out, us) == 1);
+    CHECK(out[0].motor == 1);
+    CHECK(out[0].period_q8 == 0);
+    CHECK(us[0] == 2);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 1000000);
+    CHECK(us[0] == 3);
+  }
+  SECTION("off, on, off: one silence") {
+    c.add({1, 0, 2});
+    c.add({1, 1200000, 3});
+    c.add({1, 0, 4});
+    CHECK(c.take_silences(out, us) == 0);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 0);
+    CHECK(us[0] == 4);
+  }
+  SECTION("without take_silences, take_latest still sends the silence first") {
+    c.add({1, 0, 2});
+    c.add({1, 1200000, 3});
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 0);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 1200000);
+  }
+  SECTION("a note that never went out and its silence cancel") {
+    c.add({3, 1300000, 2});
+    c.add({3, 0, 3});
+    CHECK(c.take_silences(out, us) == 0);
+    CHECK(c.take_latest(out, us) == 0);
+    CHECK_FALSE(c.pending());
+  }
+}
+
+TEST_CASE("live: latency histogram percentiles", "[live]") {
+  LatencyHistogram h;
+  CHECK(h.percentile(0.5) == 0);
+  for (uint64_t us = 1; us <= 100; ++us) h.record(us);
+  h.record(50000);  // beyond the last bin: counted there, max keeps it
+  CHECK(h.count() == 101);
+  CHECK(h.percentile(0.5) == 51);
+  CHECK(h.percentile(0.99) == 100);
+  CHECK(h.percentile(1.0) == LatencyHistogram::kBins - 1);
+  CHECK(h.max_us() == 50000);
+}
+
+TEST_CASE("live: pool configuration spans the boards", "[live]") {
+  const AllocatorConfig c = pool_config({{nullptr, 4, 16000000}, {nullptr, 5, 20000000}}, Policy::kMono);
+  CHECK(c.motor_count == 9);
+  CHECK(c.motors[3].f_cpu_hz == 16000000);
+  CHECK(c.motors[4].f_cpu_hz == 20000000);
+  CHECK(c.mono_channel[8] == 0);
+  CHECK_THROWS_AS(pool_config({}, Policy::kPoly), std::invalid_argument);
+  CHECK_THROWS_AS(pool_config({{nullptr, 30, kF}, {nullptr, 5, kF}}, Policy::kPoly), std::invalid_argument);
+}
+
+TEST_CASE("live: notes reach the link as set-period frames, and stop silences and stops all", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly));
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100, monotonic_us())));
+  REQUIRE(eventually([&] { return entries_of(link.frames()).size() >= 2; }));
+  CHECK(eventually([&] { return s.motor_note(0) == 69 && s.motor_note(1) == 76; }));
+  REQUIRE(s.midi_queue().try_enqueue(note_off(0, 69, 0, monotonic_us())));
+  REQUIRE(eventually([&] { return entries_of(link.frames()).size() >= 3; }));
+  CHECK(eventually([&] { return s.motor_note(0) == -1; }));
+  s.stop();
+  const auto frames = link.frames();
+  REQUIRE(frames.size() >= 2);
+  CHECK(frames.front()[0] == sc::kMsgWatchdog);
+  CHECK(sc::get_u16(&frames.front()[1]) == sc::kWatchdogDefaultMs);
+  CHECK(frames.back()[0] == sc::kMsgStopAll);
+  const auto entries = entries_of(frames);
+  // Motor 1 is silenced by stop(); motors already silent get no entry (stop-all covers them).
+  CHECK(periods_of(entries, 0) == std::vector<uint32_t>{a4, 0});
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{e5, 0});
+  CHECK(periods_of(entries, 3).empty());
+  CHECK(s.events() == 3);
+  CHECK(s.latency().count() == 4);
+  CHECK(s.board_stats(0).frames_sent.load() == frames.size());
+}
+
+TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {
+  FakeLink link(3000);  // 3 ms a write: far slower than the events below
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel));
+  s.start();
+  const int kRepeats = 200;
+  for (int i = 0; i < kRepeats; ++i) {  // channel 0 -> motor 0: a note struck 200 times, with bends
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
+    REQUIRE(s.midi_queue().try_enqueue(pitch_bend(0, static_cast<uint16_t>(8192 + 40 * i))));
+    REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
+  }
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));  // channel 1 -> motor 1, held
+  REQUIRE(eventually([&] { return s.events() == 3 * kRepeats + 1; }));
+  REQUIRE(eventually([&] { return s.motor_note(1) == 64; }));
+  const auto before_stop = entries_of(link.frames());
+  s.stop();
+  const auto entries = entries_of(link.frames());
+  const auto m0 = periods_of(entries, 0);
+  // Fewer frames than events: the link could not carry them all, so states were coalesced.
+  CHECK(link.frames().size() < size_t(kRepeats));
+  CHECK(s.board_stats(0).coalesced.load() > 0);
+  // Never two notes in a row without the silence between them, and silent at the end.
+  REQUIRE_FALSE(m0.empty());
+  for (size_t i = 1; i < m0.size(); ++i) CHECK((m0[i] == 0 || m0[i - 1] == 0));
+  CHECK(m0.back() == 0);
+  // Motor 1's note arrived before stop() and was then silenced.
+  CHECK(periods_of(before_stop, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF)});
+  CHECK(periods_of(entries, 1).back() == 0);
+}
+
+TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 1, kF}}, pool_config({{&link, 1, kF}}, Policy::kPoly));
+  s.start();
+  // Liveness only: at least two heartbeats come, however slow the machine.
+  REQUIRE(eventually([&] { return s.board_stats(0).heartbeats.load() >= 2; }));
+  s.stop();
+  size_t heartbeats = 0;
+  for (const auto &f : link.frames()) heartbeats += f.size() == 1 && f[0] == sc::kMsgHeartbeat;
+  CHECK(heartbeats >= 2);
+}
