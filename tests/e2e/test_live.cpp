@@ -1,0 +1,254 @@
+// test_live.cpp: `stepchoir live` end to end, no fakes: a JACK server (dummy driver), a test
+// sender on a JACK MIDI port, the stepchoir process reading it through RtMidi, and the real
+// firmware on the virtual board. The board's trace must show every note at its pitch on some
+// motor, started and released on time (chords, velocity-0 note-offs, sustain, bends); after
+// hundreds of random events nothing may sound; SIGTERM must silence a held note at once.
+#include <catch2/catch.hpp>
+
+#include <RtMidi.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis.h"
+#include "child_process.h"
+#include "e2e_util.h"
+#include "midi_event.h"
+#include "trace.h"
+
+namespace tr = sc::trace;
+using stepchoir::MidiEvent;
+
+namespace {
+
+// How far a note's start or end may sit from when it was sent: the JACK period (2.7 ms),
+// the path through the host and the line, and a loaded machine's scheduling.
+const double kTimeToleranceS = 0.045;
+// Pitch: a segment's mean interval against the note (semitones; 0.02 = 2 cents).
+const double kPitchToleranceSemitones = 0.02;
+
+using Clock = std::chrono::steady_clock;
+
+// A private JACK server with the dummy driver, no realtime; JACK clients of this process and
+// its children find it through JACK_DEFAULT_SERVER.
+class JackServer {
+ public:
+  JackServer() : name_("stepchoir-e2e-" + std::to_string(getpid())) {
+    setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
+    setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
+    jackd_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, "-r", "-d", "dummy", "-p", "128"}, false);
+    ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
+    if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");
+  }
+  ~JackServer() { jackd_->signal_and_wait(SIGTERM); }
+
+ private:
+  std::string name_;
+  std::unique_ptr<ChildProcess> jackd_;
+};
+
+// The test's MIDI keyboard: a virtual JACK MIDI output that `stepchoir live` connects to.
+class Sender {
+ public:
+  static constexpr const char *kPort = "e2e-keys";
+  Sender() : out_(RtMidi::UNIX_JACK, "stepchoir e2e sender") { out_.openVirtualPort(kPort); }
+  // Sends one channel message; returns when it was sent (s on the steady clock).
+  double send(const MidiEvent &e) {
+    const unsigned char m[3] = {e.status, e.data1, e.data2};
+    out_.sendMessage(m, 3);
+    return now_s();
+  }
+  static double now_s() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
+
+ private:
+  RtMidiOut out_;
+};
+
+// A note the trace must show: pitch (fractional MIDI note, bend included), from on_s to off_s
+// on the sender's clock.
+struct Expected {
+  double pitch;
+  double on_s, off_s;
+};
+
+// One note the board played, on the board's clock.
+struct Played {
+  int motor;
+  double start_s, end_s, pitch;
+};
+
+// Every note segment of every motor of a trace.
+std::vector<Played> played_notes(const tr::Trace &t) {
+  std::vector<Played> out;
+  for (int m = 0; m < t.motors; ++m)
+    for (const auto &s : tr::segment_notes(t.motor[m].steps, t.f_cpu_hz))
+      out.push_back({m, t.board_seconds(s.start_cycle), t.board_seconds(s.end_cycle), s.midi_note});
+  std::sort(out.begin(), out.end(), [](const Played &a, const Played &b) { return a.start_s < b.start_s; });
+  return out;
+}
+
+// Sleeps until `t_s` on the steady clock.
+void sleep_until_s(double t_s) {
+  const double left = t_s - Sender::now_s();
+  if (left > 0) std::this_thread::sleep_for(std::chrono::duration<double>(left));
+}
+
+}  // namespace
+
+TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live", "[e2e][live]") {
+  JackServer jack;
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty(),
+                     "--quiet"},
+                    true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.rfind("live: MIDI", 0) == 0);
+  REQUIRE(line.find("-> 4 motors") != std::string::npos);
+
+  // Phase 1: a script, every event 150-300 ms apart, so each note is its own segment.
+  using stepchoir::control_change;
+  using stepchoir::note_off;
+  using stepchoir::note_on;
+  using stepchoir::pitch_bend;
+  const double t0 = Sender::now_s() + 0.3;
+  std::vector<Expected> expected;
+  auto at = [&](double t, const MidiEvent &e) {
+    sleep_until_s(t0 + t);
+    return keys.send(e);
+  };
+  double on = at(0.0, note_on(0, 60, 100));
+  double off = at(0.3, note_off(0, 60));
+  expected.push_back({60, on, off});
+  std::vector<double> chord_on;
+  for (uint8_t n : {64, 67, 71}) chord_on.push_back(at(0.45, note_on(0, n, 90)));
+  double off64 = at(0.85, note_on(0, 64, 0));  // velocity 0: a note-off
+  double off67 = at(0.85, note_off(0, 67));
+  double off71 = at(0.85, note_off(0, 71));
+  expected.push_back({64, chord_on[0], off64});
+  expected.push_back({67, chord_on[1], off67});
+  expected.push_back({71, chord_on[2], off71});
+  at(1.0, control_change(0, stepchoir::kCcSustain, 127));
+  on = at(1.0, note_on(0, 62, 100));
+  at(1.3, note_off(0, 62));  // the pedal holds it
+  off = at(1.6, control_change(0, stepchoir::kCcSustain, 0));
+  expected.push_back({62, on, off});
+  at(1.8, pitch_bend(0, 8192 + 4096));  // +1 semitone of the default +/-2
+  on = at(1.8, note_on(0, 65, 100));
+  const double centre = at(2.1, pitch_bend(0, 8192));
+  off = at(2.4, note_off(0, 65));
+  expected.push_back({66, on, centre});
+  expected.push_back({65, centre, off});
+  const double script_end = off;
+
+  // Phase 2: 400 random events on two channels: notes, chords, sustain, bends; then every key
+  // up, pedals up, bends centred (no all-notes-off: the host must get there by itself).
+  std::mt19937 rng(12345);
+  std::set<std::pair<uint8_t, uint8_t>> held;
+  double t = 2.7;
+  for (int i = 0; i < 400; ++i) {
+    t += 0.004 + 0.008 * std::uniform_real_distribution<double>(0, 1)(rng);
+    const uint8_t ch = static_cast<uint8_t>(rng() % 2);
+    const unsigned kind = rng() % 20;
+    if (kind < 9 || held.empty()) {
+      const uint8_t n = static_cast<uint8_t>(36 + rng() % 60);
+      held.insert({ch, n});
+      at(t, note_on(ch, n, static_cast<uint8_t>(1 + rng() % 127)));
+    } else if (kind < 17) {
+      auto it = held.begin();
+      std::advance(it, rng() % held.size());
+      at(t, rng() % 3 ? note_off(it->first, it->second) : note_on(it->first, it->second, 0));
+      held.erase(it);
+    } else if (kind < 19) {
+      at(t, control_change(ch, stepchoir::kCcSustain, rng() % 2 ? 127 : 0));
+    } else {
+      at(t, pitch_bend(ch, static_cast<uint16_t>(rng() % 16384)));
+    }
+  }
+  for (const auto &k : held) at(t, note_off(k.first, k.second));
+  for (uint8_t ch = 0; ch < 2; ++ch) {
+    at(t, control_change(ch, stepchoir::kCcSustain, 0));
+    at(t, pitch_bend(ch, 8192));
+  }
+  const double random_end = Sender::now_s();
+
+  // Phase 3: a held note, then SIGTERM: the motor must stop at once (the watchdog would take
+  // 300 ms).
+  sleep_until_s(random_end + 0.5);
+  const double held_on = keys.send(note_on(0, 72, 100));
+  sleep_until_s(held_on + 0.4);
+  const double term_s = Sender::now_s();
+  const int live_rc = live.signal_and_wait(SIGTERM);
+  const std::string live_out = live.read_rest(2000);
+  sleep_until_s(term_s + 0.5);
+  REQUIRE(vb.stop() == 0);
+  INFO("stepchoir live output:\n" << live_out);
+  CHECK(live_rc == 0);
+  CHECK(live_out.find("live: every motor silenced") != std::string::npos);
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  const std::vector<Played> played = played_notes(trace);
+  REQUIRE_FALSE(played.empty());
+  // Board clock = sender clock + offset, from the first note (the board was silent before it).
+  const double offset = played.front().start_s - expected.front().on_s;
+  INFO("board clock - sender clock: " << offset << " s");
+
+  for (const Expected &e : expected) {
+    const Played *match = nullptr;
+    for (const Played &p : played)
+      if (std::fabs(p.pitch - e.pitch) < kPitchToleranceSemitones &&
+          std::fabs(p.start_s - offset - e.on_s) < kTimeToleranceS)
+        match = &p;
+    INFO("note " << e.pitch << " from " << e.on_s - t0 << " s to " << e.off_s - t0 << " s");
+    REQUIRE(match != nullptr);
+    // The last step comes at most one period before the release.
+    const double period_s = 1.0 / tr::hz_from_midi(e.pitch);
+    CHECK(std::fabs(match->end_s - offset - e.off_s) < kTimeToleranceS + period_s);
+  }
+  // Nothing else sounded during the script.
+  for (const Played &p : played)
+    if (p.start_s - offset < script_end + 0.1) {
+      const bool known = std::any_of(expected.begin(), expected.end(), [&](const Expected &e) {
+        return std::fabs(p.pitch - e.pitch) < kPitchToleranceSemitones;
+      });
+      INFO("motor " << p.motor << " played " << p.pitch << " at " << p.start_s - offset - t0 << " s");
+      CHECK(known);
+    }
+
+  // The random phase sounded, and nothing was left sounding after its last event.
+  size_t random_notes = 0;
+  for (const Played &p : played) random_notes += p.start_s - offset > script_end + 0.1 && p.start_s - offset < random_end;
+  CHECK(random_notes > 50);
+  for (int m = 0; m < trace.motors; ++m) {
+    const auto quiet = tr::steps_in_window(trace.motor[m].steps, static_cast<uint64_t>((random_end + offset + kTimeToleranceS) * trace.f_cpu_hz),
+                                           static_cast<uint64_t>((held_on + offset - 0.01) * trace.f_cpu_hz));
+    INFO("motor " << m << " stepped " << quiet.size() << " times after the random phase ended");
+    CHECK(quiet.size() == 0);
+  }
+
+  // The held note sounded until SIGTERM and stopped right after it.
+  const Played *held_note = nullptr;
+  for (const Played &p : played)
+    if (std::fabs(p.pitch - 72) < kPitchToleranceSemitones && p.start_s - offset > held_on - kTimeToleranceS) held_note = &p;
+  REQUIRE(held_note != nullptr);
+  CHECK(held_note->end_s - offset > term_s - kTimeToleranceS);
+  CHECK(held_note->end_s - offset < term_s + kTimeToleranceS + 0.1);
+  for (int m = 0; m < trace.motors; ++m) {
+    const auto after = tr::steps_in_window(trace.motor[m].steps, static_cast<uint64_t>((term_s + offset + 0.2) * trace.f_cpu_hz),
+                                           trace.end_cycle + 1);
+    CHECK(after.size() == 0);
+  }
+}
