@@ -18,6 +18,15 @@
 
 extern char **environ;
 
+// Waits for child pid to exit: its exit status, or -1 when a signal ended it.
+// Called from: ChildProcess and VboardProcess.
+inline int wait_exit_status(pid_t pid) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
 class ChildProcess {
  public:
   // Starts argv[0] (a path) with the test's environment; stdout comes through a pipe when
@@ -90,11 +99,8 @@ class ChildProcess {
   // Waits for the exit (status as above).
   int wait() {
     if (pid_ <= 0) return status_;
-    int status = 0;
-    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
+    status_ = wait_exit_status(pid_);
     pid_ = -1;
-    status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     return status_;
   }
 
