@@ -30,11 +30,13 @@ using stepchoir::MidiEvent;
 
 namespace {
 
-// How far a note's start or end may sit from when it was sent: the JACK period (2.7 ms),
+// How far a note's start or end may sit from when it was sent: the JACK period (21 ms),
 // the path through the host and the line, and a loaded machine's scheduling.
 const double kTimeToleranceS = 0.045;
 // Pitch: a segment's mean interval against the note (semitones; 0.02 = 2 cents).
 const double kPitchToleranceSemitones = 0.02;
+// Silence between the random phase and the last held note (sender clock, s).
+const double kQuietGapS = 1.0;
 
 using Clock = std::chrono::steady_clock;
 
@@ -46,7 +48,7 @@ class JackServer {
     setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
     setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
     jackd_ = std::make_unique<ChildProcess>(
-        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, "-r", "-d", "dummy", "-p", "128"}, false);
+        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, "-r", "-d", "dummy", "-p", "1024"}, false);
     ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
     if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");
   }
@@ -97,6 +99,15 @@ std::vector<Played> played_notes(const tr::Trace &t) {
   return out;
 }
 
+// The virtual board's worst lag behind the wall clock (s), from its trace summary.
+double pacing_lag_max_s(const tr::Trace &t) {
+  for (const auto &line : t.summary_lines) {
+    const size_t at = line.find("pacing_lag_max_us=");
+    if (at != std::string::npos) return std::stod(line.substr(at + 18)) / 1e6;
+  }
+  return 0;
+}
+
 // Sleeps until `t_s` on the steady clock.
 void sleep_until_s(double t_s) {
   const double left = t_s - Sender::now_s();
@@ -126,8 +137,10 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
   using stepchoir::pitch_bend;
   const double t0 = Sender::now_s() + 0.3;
   std::vector<Expected> expected;
+  size_t sent = 0;
   auto at = [&](double t, const MidiEvent &e) {
     sleep_until_s(t0 + t);
+    ++sent;
     return keys.send(e);
   };
   double on = at(0.0, note_on(0, 60, 100));
@@ -186,9 +199,10 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
   const double random_end = Sender::now_s();
 
   // Phase 3: a held note, then SIGTERM: the motor must stop at once (the watchdog would take
-  // 300 ms).
-  sleep_until_s(random_end + 0.5);
+  // 300 ms). The second of silence before it is where a stuck note would show.
+  sleep_until_s(random_end + kQuietGapS);
   const double held_on = keys.send(note_on(0, 72, 100));
+  ++sent;
   sleep_until_s(held_on + 0.4);
   const double term_s = Sender::now_s();
   const int live_rc = live.signal_and_wait(SIGTERM);
@@ -197,26 +211,36 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
   REQUIRE(vb.stop() == 0);
   INFO("stepchoir live output:\n" << live_out);
   CHECK(live_rc == 0);
-  CHECK(live_out.find("live: every motor silenced") != std::string::npos);
+  CHECK(live_out.find("live: every motor silenced (" + std::to_string(sent) + " events") != std::string::npos);
 
   const tr::Trace trace = tr::read_trace(trace_path);
   const std::vector<Played> played = played_notes(trace);
   REQUIRE_FALSE(played.empty());
-  // Board clock = sender clock + offset, from the first note (the board was silent before it).
-  const double offset = played.front().start_s - expected.front().on_s;
-  INFO("board clock - sender clock: " << offset << " s");
-
+  // On a loaded machine the simulation falls behind the wall clock and catches up later, so
+  // board time and sender time drift apart by up to the board's worst pacing lag: timing
+  // checks allow for it, and each note is found near where the previous one was found.
+  const double lag_s = pacing_lag_max_s(trace);
+  const double tolerance_s = kTimeToleranceS + lag_s;
+  INFO("virtual board's worst pacing lag: " << lag_s * 1e3 << " ms");
+  double offset = played.front().start_s - expected.front().on_s;  // board clock - sender clock
   for (const Expected &e : expected) {
     const Played *match = nullptr;
     for (const Played &p : played)
       if (std::fabs(p.pitch - e.pitch) < kPitchToleranceSemitones &&
-          std::fabs(p.start_s - offset - e.on_s) < kTimeToleranceS)
+          std::fabs(p.start_s - offset - e.on_s) < tolerance_s)
         match = &p;
     INFO("note " << e.pitch << " from " << e.on_s - t0 << " s to " << e.off_s - t0 << " s");
+    std::string nearby;
+    for (const Played &p : played)
+      if (std::fabs(p.start_s - offset - e.on_s) < 0.5)
+        nearby += "  motor " + std::to_string(p.motor) + " pitch " + std::to_string(p.pitch) + " from " +
+                  std::to_string(p.start_s - offset - t0) + " to " + std::to_string(p.end_s - offset - t0) + "\n";
+    INFO("played nearby:\n" << nearby);
     REQUIRE(match != nullptr);
-    // The last step comes at most one period before the release.
+    offset = match->start_s - e.on_s;
+    // Released on time: the last step comes at most one period before the release.
     const double period_s = 1.0 / tr::hz_from_midi(e.pitch);
-    CHECK(std::fabs(match->end_s - offset - e.off_s) < kTimeToleranceS + period_s);
+    CHECK(std::fabs(match->end_s - offset - e.off_s) < tolerance_s + period_s);
   }
   // Nothing else sounded during the script.
   for (const Played &p : played)
@@ -228,27 +252,30 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
       CHECK(known);
     }
 
-  // The random phase sounded, and nothing was left sounding after its last event.
-  size_t random_notes = 0;
-  for (const Played &p : played) random_notes += p.start_s - offset > script_end + 0.1 && p.start_s - offset < random_end;
-  CHECK(random_notes > 50);
+  // The held note is the last note of the trace; it sounded until SIGTERM and stopped right
+  // after it.
+  const Played &held_note = played.back();
+  REQUIRE(std::fabs(held_note.pitch - 72) < kPitchToleranceSemitones);
+  CHECK(held_note.end_s - held_note.start_s > term_s - held_on - tolerance_s);
+  CHECK(held_note.end_s - held_note.start_s < term_s - held_on + tolerance_s + 0.1);
   for (int m = 0; m < trace.motors; ++m) {
-    const auto quiet = tr::steps_in_window(trace.motor[m].steps, static_cast<uint64_t>((random_end + offset + kTimeToleranceS) * trace.f_cpu_hz),
-                                           static_cast<uint64_t>((held_on + offset - 0.01) * trace.f_cpu_hz));
-    INFO("motor " << m << " stepped " << quiet.size() << " times after the random phase ended");
-    CHECK(quiet.size() == 0);
+    const auto after = tr::steps_in_window(trace.motor[m].steps,
+                                           static_cast<uint64_t>((held_note.end_s + 0.001) * trace.f_cpu_hz),
+                                           trace.end_cycle + 1);
+    INFO("motor " << m << " stepped " << after.size() << " times after the held note ended");
+    CHECK(after.size() == 0);
   }
 
-  // The held note sounded until SIGTERM and stopped right after it.
-  const Played *held_note = nullptr;
-  for (const Played &p : played)
-    if (std::fabs(p.pitch - 72) < kPitchToleranceSemitones && p.start_s - offset > held_on - kTimeToleranceS) held_note = &p;
-  REQUIRE(held_note != nullptr);
-  CHECK(held_note->end_s - offset > term_s - kTimeToleranceS);
-  CHECK(held_note->end_s - offset < term_s + kTimeToleranceS + 0.1);
+  // The random phase sounded, and nothing was left sounding after its last event: the second
+  // before the held note is silent on every motor.
+  size_t random_notes = 0;
+  for (const Played &p : played) random_notes += p.start_s - offset > script_end + 0.1;
+  CHECK(random_notes > 50);
+  const double quiet_from_s = held_note.start_s - (kQuietGapS - 0.3);
   for (int m = 0; m < trace.motors; ++m) {
-    const auto after = tr::steps_in_window(trace.motor[m].steps, static_cast<uint64_t>((term_s + offset + 0.2) * trace.f_cpu_hz),
-                                           trace.end_cycle + 1);
-    CHECK(after.size() == 0);
+    const auto quiet = tr::steps_in_window(trace.motor[m].steps, static_cast<uint64_t>(quiet_from_s * trace.f_cpu_hz),
+                                           static_cast<uint64_t>((held_note.start_s - 0.001) * trace.f_cpu_hz));
+    INFO("motor " << m << " stepped " << quiet.size() << " times after the random phase ended");
+    CHECK(quiet.size() == 0);
   }
 }
