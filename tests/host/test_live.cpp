@@ -2,7 +2,9 @@
 // Coalescer, the latency histogram, and a LiveSession writing to a fake link.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -15,15 +17,21 @@ using namespace stepchoir;
 
 namespace {
 
-// A Link that keeps every byte written, optionally slow; reads time out with nothing.
+// A Link that keeps every byte written; reads time out with nothing. While closed, writes
+// wait: a link slower than anything the test sends.
 class FakeLink : public Link {
  public:
-  explicit FakeLink(int write_delay_us = 0) : delay_us_(write_delay_us) {}
   bool write(const uint8_t *data, size_t len) override {
-    if (delay_us_) std::this_thread::sleep_for(std::chrono::microseconds(delay_us_));
-    std::lock_guard<std::mutex> lock(mu_);
+    std::unique_lock<std::mutex> lock(mu_);
+    opened_.wait(lock, [this] { return open_; });
     bytes_.insert(bytes_.end(), data, data + len);
     return true;
+  }
+  // Called from: the test. Holds writes back (close) or lets them through (open).
+  void set_open(bool open) {
+    std::lock_guard<std::mutex> lock(mu_);
+    open_ = open;
+    opened_.notify_all();
   }
   long read(uint8_t *, size_t, int timeout_ms) override {
     std::this_thread::sleep_for(std::chrono::milliseconds(std::min(timeout_ms, 5)));
@@ -41,7 +49,8 @@ class FakeLink : public Link {
   }
 
  private:
-  int delay_us_;
+  bool open_ = true;
+  std::condition_variable opened_;
   std::mutex mu_;
   std::vector<uint8_t> bytes_;
 };
@@ -222,32 +231,42 @@ TEST_CASE("live: notes reach the link as set-period frames, and stop silences an
 }
 
 TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {
-  FakeLink link(3000);  // 3 ms a write: far slower than the events below
+  FakeLink link;
   LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel));
   s.start();
+  const uint32_t c4 = hz_to_period_q8(note_hz(60), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel 0 -> motor 0
+  REQUIRE(eventually([&] { return periods_of(entries_of(link.frames()), 0) == std::vector<uint32_t>{c4}; }));
+  link.set_open(false);  // from here the writer blocks in its next write until every event is in
   const int kRepeats = 200;
-  for (int i = 0; i < kRepeats; ++i) {  // channel 0 -> motor 0: a note struck 200 times, with bends
-    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
-    REQUIRE(s.midi_queue().try_enqueue(pitch_bend(0, static_cast<uint16_t>(8192 + 40 * i))));
+  for (int i = 1; i <= kRepeats; ++i) {  // the note released and struck again 200 times, bending
     REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
+    REQUIRE(s.midi_queue().try_enqueue(pitch_bend(0, static_cast<uint16_t>(8192 + 40 * i))));
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
   }
-  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));  // channel 1 -> motor 1, held
-  REQUIRE(eventually([&] { return s.events() == 3 * kRepeats + 1; }));
-  REQUIRE(eventually([&] { return s.motor_note(1) == 64; }));
-  const auto before_stop = entries_of(link.frames());
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));  // channel 1 -> motor 1
+  REQUIRE(eventually([&] { return s.events() == 3 * kRepeats + 2; }));
+  link.set_open(true);
+  const uint32_t last_bend = hz_to_period_q8(note_hz(60 + 2.0 * (40 * kRepeats) / 8192), kF);
+  REQUIRE(eventually([&] {
+    const auto e = entries_of(link.frames());
+    return !periods_of(e, 1).empty() && periods_of(e, 0).back() == last_bend;
+  }));
+  const auto before_stop = periods_of(entries_of(link.frames()), 0);
   s.stop();
   const auto entries = entries_of(link.frames());
-  const auto m0 = periods_of(entries, 0);
-  // Fewer frames than events: the link could not carry them all, so states were coalesced.
-  CHECK(link.frames().size() < size_t(kRepeats));
+  // A handful of frames for 600 events: the states were coalesced.
+  CHECK(link.frames().size() < 12);
   CHECK(s.board_stats(0).coalesced.load() > 0);
+  // The note was struck again: a silence went out between the first note and the last.
+  REQUIRE(before_stop.size() >= 3);
+  CHECK(before_stop.front() == c4);
+  CHECK(std::find(before_stop.begin(), before_stop.end(), 0u) != before_stop.end());
   // Never two notes in a row without the silence between them, and silent at the end.
-  REQUIRE_FALSE(m0.empty());
+  const auto m0 = periods_of(entries, 0);
   for (size_t i = 1; i < m0.size(); ++i) CHECK((m0[i] == 0 || m0[i - 1] == 0));
   CHECK(m0.back() == 0);
-  // Motor 1's note arrived before stop() and was then silenced.
-  CHECK(periods_of(before_stop, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF)});
-  CHECK(periods_of(entries, 1).back() == 0);
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF), 0});
 }
 
 TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]") {
