@@ -1,6 +1,9 @@
 // live.cpp: engine, writer and reader threads of the live path, and the Coalescer.
 #include "live.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -144,6 +147,15 @@ void write_entries(Link &link, BoardStats &stats, LatencyHistogram &latency, con
   }
 }
 
+// Called from: the engine and writer threads as they start. Asks for real-time scheduling
+// (SCHED_FIFO), so that a busy machine does not delay their wake-ups; without the privilege
+// the thread keeps normal scheduling. Returns whether it got it.
+bool make_realtime(int priority) noexcept {
+  sched_param p{};
+  p.sched_priority = priority;
+  return pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+}
+
 }  // namespace
 
 AllocatorConfig pool_config(const std::vector<LiveBoard> &boards, Policy policy) {
@@ -218,6 +230,7 @@ int LiveSession::motor_note(size_t m) const noexcept {
 // Per event: Allocator::handle (table walks and one exp2 per retuned motor, a few us) and
 // one try_enqueue per changed motor. Never allocates, locks or logs.
 void LiveSession::engine_loop() {
+  realtime_.fetch_add(make_realtime(kEnginePriority) ? 1 : 0);
   sc::PeriodEntry out[Allocator::kMaxMotors];
   MidiEvent ev;
   while (!stop_engine_.load(std::memory_order_acquire)) {
@@ -249,6 +262,7 @@ void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event
 // end stop-all. Budget per wake: drain the queue (tens of ns an update), encode at most two
 // frames (< 1 us), then Link::write (a syscall; blocks while the OS buffer is full).
 void LiveSession::writer_loop(BoardThreads &b) {
+  realtime_.fetch_add(make_realtime(kWriterPriority) ? 1 : 0);
   Link &link = *b.board.link;
   BoardStats &stats = *b.stats;
   Coalescer coalescer;

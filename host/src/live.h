@@ -120,6 +120,10 @@ class LiveSession {
  public:
   static constexpr size_t kMidiQueueEvents = 4096;
   static constexpr size_t kUpdateQueueEntries = 4096;
+  // SCHED_FIFO priorities when the system grants them: below JACK's usual 70-95, the writer
+  // under the engine.
+  static constexpr int kEnginePriority = 60;
+  static constexpr int kWriterPriority = 59;
 
   // Builds the queues and the allocator (config.motor_count must be the pool's motor count).
   // Called from: setup code. Allocates; throws std::invalid_argument on a bad configuration.
@@ -148,6 +152,8 @@ class LiveSession {
   const BoardStats &board_stats(size_t b) const { return *boards_[b]->stats; }
   // MIDI events the engine applied.
   uint64_t events() const noexcept { return events_.load(std::memory_order_relaxed); }
+  // Threads (engine and writers) that got real-time scheduling; valid once they run.
+  int realtime_threads() const noexcept { return realtime_.load(); }
   // MIDI event arrival -> its frame handed to the OS (write() returned), per motor entry.
   const LatencyHistogram &latency() const { return *latency_; }
 
@@ -175,6 +181,7 @@ class LiveSession {
   std::atomic<uint64_t> events_{0};
   std::unique_ptr<LatencyHistogram> latency_ = std::make_unique<LatencyHistogram>();
   std::atomic<bool> stop_engine_{false};
+  std::atomic<int> realtime_{0};
   std::thread engine_;
   bool started_ = false, stopped_ = false;
 };

@@ -163,6 +163,9 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::printf("live: MIDI %s (%s) -> %zu motors, policy %s; Ctrl-C to stop\n", midi->port_name().c_str(),
               o.midi_api.c_str(), session.motor_count(), o.policy.c_str());
   std::fflush(stdout);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  if (session.realtime_threads() == 0)
+    log->info("no real-time scheduling for the engine and writer threads (needs CAP_SYS_NICE or an rtprio limit)");
 
   int rc = 0;
   uint64_t errors_logged = 0, dropped_logged = 0;

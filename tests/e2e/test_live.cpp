@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "analysis.h"
-#include "child_process.h"
 #include "e2e_util.h"
+#include "jack_rig.h"
 #include "midi_event.h"
 #include "trace.h"
 
@@ -37,44 +37,6 @@ const double kTimeToleranceS = 0.045;
 const double kPitchToleranceSemitones = 0.02;
 // Silence between the random phase and the last held note (sender clock, s).
 const double kQuietGapS = 1.0;
-
-using Clock = std::chrono::steady_clock;
-
-// A private JACK server with the dummy driver, no realtime; JACK clients of this process and
-// its children find it through JACK_DEFAULT_SERVER.
-class JackServer {
- public:
-  JackServer() : name_("stepchoir-e2e-" + std::to_string(getpid())) {
-    setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
-    setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
-    jackd_ = std::make_unique<ChildProcess>(
-        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, "-r", "-d", "dummy", "-p", "1024"}, false);
-    ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
-    if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");
-  }
-  ~JackServer() { jackd_->signal_and_wait(SIGTERM); }
-
- private:
-  std::string name_;
-  std::unique_ptr<ChildProcess> jackd_;
-};
-
-// The test's MIDI keyboard: a virtual JACK MIDI output that `stepchoir live` connects to.
-class Sender {
- public:
-  static constexpr const char *kPort = "e2e-keys";
-  Sender() : out_(RtMidi::UNIX_JACK, "stepchoir e2e sender") { out_.openVirtualPort(kPort); }
-  // Sends one channel message; returns when it was sent (s on the steady clock).
-  double send(const MidiEvent &e) {
-    const unsigned char m[3] = {e.status, e.data1, e.data2};
-    out_.sendMessage(m, 3);
-    return now_s();
-  }
-  static double now_s() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
-
- private:
-  RtMidiOut out_;
-};
 
 // A note the trace must show: pitch (fractional MIDI note, bend included), from on_s to off_s
 // on the sender's clock.
@@ -117,7 +79,7 @@ void sleep_until_s(double t_s) {
 }  // namespace
 
 TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live", "[e2e][live]") {
-  JackServer jack;
+  JackServer jack(1024);
   Sender keys;
   const std::string trace_path = e2e::scratch("live.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
