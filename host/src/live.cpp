@@ -72,6 +72,14 @@ size_t Coalescer::take_latest(sc::PeriodEntry *out, uint64_t *event_us) noexcept
   return n;
 }
 
+void Coalescer::board_restarted() noexcept {
+  for (Slot &s : slots_) {
+    s.sent = sc::kPeriodSilent;
+    s.silence_first = false;
+    s.dirty = s.latest != sc::kPeriodSilent;
+  }
+}
+
 bool Coalescer::pending() const noexcept {
   for (const Slot &s : slots_)
     if (s.dirty || s.silence_first) return true;
@@ -181,6 +189,7 @@ LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &c
       throw std::invalid_argument("live: a board without a link or with an unusable motor count");
     auto b = std::make_unique<BoardThreads>();
     b->board = lb;
+    b->link.store(lb.link);
     b->first_motor = motor_count_;
     for (size_t m = 0; m < lb.motor_count && motor_count_ + m < Allocator::kMaxMotors; ++m)
       board_of_[motor_count_ + m] = static_cast<uint8_t>(boards_.size());
@@ -201,7 +210,7 @@ void LiveSession::start() {
   for (auto &b : boards_) {
     uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
     sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
-    write_payload(*b->board.link, *b->stats, wd, sizeof wd);
+    write_payload(*b->link.load(), *b->stats, wd, sizeof wd);
   }
   for (auto &b : boards_) {
     BoardThreads *p = b.get();
@@ -220,6 +229,29 @@ void LiveSession::stop() {
   for (auto &b : boards_) b->writer.join();  // each drains its queue, then sends stop-all
   for (auto &b : boards_) b->stop_reader.store(true);
   for (auto &b : boards_) b->reader.join();
+}
+
+bool LiveSession::detach_link(size_t board, int timeout_ms) {
+  BoardThreads &b = *boards_.at(board);
+  const uint32_t gen = b.detach_gen.load() + 1;
+  b.detach_gen.store(gen, std::memory_order_release);
+  const auto end = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  while (b.writer_parked_gen.load(std::memory_order_acquire) != gen ||
+         b.reader_parked_gen.load(std::memory_order_acquire) != gen) {
+    if (Clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+void LiveSession::attach_link(size_t board, Link *link) {
+  BoardThreads &b = *boards_.at(board);
+  b.link.store(link, std::memory_order_release);
+  b.board.link = link;
+  b.stats->write_failed.store(false);
+  b.stats->read_failed.store(false);
+  b.stats->last_status_us.store(0);
+  b.attach_gen.store(b.detach_gen.load(), std::memory_order_release);
 }
 
 int LiveSession::motor_note(size_t m) const noexcept {
@@ -263,12 +295,12 @@ void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event
 // frames (< 1 us), then Link::write (a syscall; blocks while the OS buffer is full).
 void LiveSession::writer_loop(BoardThreads &b) {
   realtime_.fetch_add(make_realtime(kWriterPriority) ? 1 : 0);
-  Link &link = *b.board.link;
   BoardStats &stats = *b.stats;
   Coalescer coalescer;
   sc::PeriodEntry entries[Coalescer::kMaxMotors];
   uint64_t event_us[Coalescer::kMaxMotors];
   auto last_write = Clock::now(), last_status = Clock::now();
+  bool parked = false;
   for (;;) {
     const bool stopping = b.stop_writer.load(std::memory_order_acquire);
     MotorUpdate u;
@@ -277,6 +309,20 @@ void LiveSession::writer_loop(BoardThreads &b) {
       while (b.updates.try_dequeue(u)) coalescer.add(u);
     } else if (stopping) {
       break;
+    }
+    const uint32_t detached = b.detach_gen.load(std::memory_order_acquire);
+    if (detached != b.attach_gen.load(std::memory_order_acquire)) {  // no link: collect only
+      b.writer_parked_gen.store(detached, std::memory_order_release);
+      parked = true;
+      continue;
+    }
+    Link &link = *b.link.load(std::memory_order_acquire);
+    if (parked) {  // a new board: it starts silent, with its watchdog at the default
+      parked = false;
+      uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+      sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
+      write_payload(link, stats, wd, sizeof wd);
+      coalescer.board_restarted();
     }
     if (coalescer.pending()) {
       size_t n = coalescer.take_silences(entries, event_us);
@@ -300,8 +346,10 @@ void LiveSession::writer_loop(BoardThreads &b) {
   }
   // Every motor got its silent entry from the engine's panic; stop-all also empties the board's
   // queue and turns the drivers off.
-  const uint8_t stop_all = sc::kMsgStopAll;
-  write_payload(link, stats, &stop_all, 1);
+  if (b.detach_gen.load() == b.attach_gen.load()) {
+    const uint8_t stop_all = sc::kMsgStopAll;
+    write_payload(*b.link.load(), stats, &stop_all, 1);
+  }
 }
 
 // One board's reader thread: replies -> BoardStats. Not on the real-time path.
@@ -310,9 +358,16 @@ void LiveSession::reader_loop(BoardThreads &b) {
   uint8_t buf[256];
   BoardStats &stats = *b.stats;
   while (!b.stop_reader.load(std::memory_order_acquire)) {
+    const uint32_t detached = b.detach_gen.load(std::memory_order_acquire);
+    if (detached != b.attach_gen.load(std::memory_order_acquire)) {
+      b.reader_parked_gen.store(detached, std::memory_order_release);
+      decoder = sc::FrameDecoder();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      continue;
+    }
     long n = -1;
     try {
-      n = b.board.link->read(buf, sizeof buf, 50);
+      n = b.link.load(std::memory_order_acquire)->read(buf, sizeof buf, 50);
     } catch (...) {
     }
     if (n < 0) {

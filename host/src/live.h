@@ -58,6 +58,9 @@ class Coalescer {
   size_t take_silences(sc::PeriodEntry *out, uint64_t *event_us) noexcept;
   // Writes every motor's latest pending state; returns the count.
   size_t take_latest(sc::PeriodEntry *out, uint64_t *event_us) noexcept;
+  // After the board was replaced by a fresh (silent) one: every motor whose latest state is a
+  // note becomes pending again, so take_latest restores what should be sounding.
+  void board_restarted() noexcept;
   // Updates folded into a later one so far (never a silence).
   uint64_t coalesced() const noexcept { return coalesced_; }
   // True when something waits to be sent.
@@ -144,6 +147,16 @@ class LiveSession {
   // Called from: the main thread (Ctrl-C, SIGTERM, a fatal error, the end of a test).
   void stop();
 
+  // Reconnection, for a board whose link failed (BoardStats::write_failed / read_failed).
+  // detach_link parks the board's writer and reader (they stop touching the link; the writer
+  // keeps collecting the latest state per motor) and waits until they have, up to timeout_ms;
+  // false when they did not park in time. attach_link hands them a new link to the same kind
+  // of board (the caller owns it and said hello): the writer sets the watchdog, restores every
+  // motor that should sound, and carries on.
+  // Called from: the main thread.
+  bool detach_link(size_t board, int timeout_ms = 3000);
+  void attach_link(size_t board, Link *link);
+
   // Per pool motor: the MIDI note it plays (played note, after folding), or -1 when silent.
   // Called from: any thread.
   int motor_note(size_t m) const noexcept;
@@ -159,8 +172,12 @@ class LiveSession {
 
  private:
   struct BoardThreads {
-    LiveBoard board;
+    LiveBoard board;         // board.link: only while attached (see link)
+    std::atomic<Link *> link{nullptr};
     size_t first_motor = 0;  // pool index of the board's motor 0
+    // detach_link bumps detach_gen; each thread, once it no longer touches the link, copies it
+    // to its parked_gen; attach_link sets attach_gen = detach_gen.
+    std::atomic<uint32_t> detach_gen{0}, attach_gen{0}, writer_parked_gen{0}, reader_parked_gen{0};
     UpdateQueue updates{kUpdateQueueEntries};
     std::unique_ptr<BoardStats> stats = std::make_unique<BoardStats>();
     std::atomic<bool> stop_writer{false}, stop_reader{false};

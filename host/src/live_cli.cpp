@@ -112,7 +112,7 @@ std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<
                          : st.read_failed ? "READ FAILED"
                          : (seen && now - seen < 2500000) ? (st.watchdog_tripped ? "watchdog" : "ok")
                                                           : "no answer";
-    line += "| " + boards[b]->link().name() + " " + health + ", " + std::to_string(st.frames_sent.load()) +
+    line += "| " + (boards[b] ? boards[b]->link().name() : std::string("?")) + " " + health + ", " + std::to_string(st.frames_sent.load()) +
             " frames, " + std::to_string(st.status_frames_bad.load()) + " bad ";
   }
   char lat[96];
@@ -120,6 +120,33 @@ std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<
                 static_cast<unsigned long long>(s.events()), static_cast<unsigned long long>(s.latency().percentile(0.5)),
                 static_cast<unsigned long long>(s.latency().percentile(0.99)));
   return line + lat;
+}
+
+// Called from: run_live's loop when board b's link failed. Parks the board's threads, then
+// reopens `path` every 500 ms until a board with as many motors answers hello (or *stop);
+// the session then restores what should be sounding. Says so on stdout.
+void reconnect(LiveSession &session, size_t b, const std::string &path, size_t motors,
+               std::vector<std::unique_ptr<Board>> &boards, const std::atomic<bool> &stop, spdlog::logger &log) {
+  std::printf("\nlive: %s: link lost; reconnecting\n", path.c_str());
+  std::fflush(stdout);
+  if (!session.detach_link(b)) log.warn("{}: the writer did not let go of the link in time", path);
+  boards[b].reset();
+  while (!stop.load()) {
+    try {
+      auto board = std::make_unique<Board>(open_link(path));
+      const Caps caps = board->hello(600);
+      if (caps.motor_count != motors)
+        throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
+      session.attach_link(b, &board->link());
+      boards[b] = std::move(board);
+      std::printf("live: %s: reconnected\n", path.c_str());
+      std::fflush(stdout);
+      return;
+    } catch (const std::exception &e) {
+      log.debug("{}: {}", path, e.what());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
 }
 
 }  // namespace
@@ -167,17 +194,16 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   if (session.realtime_threads() == 0)
     log->info("no real-time scheduling for the engine and writer threads (needs CAP_SYS_NICE or an rtprio limit)");
 
-  int rc = 0;
   uint64_t errors_logged = 0, dropped_logged = 0;
   const bool tty = ::isatty(1);
   auto last_print = std::chrono::steady_clock::now();
   while (!stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     uint64_t errors = 0;
-    bool failed = false;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
-      failed = failed || session.board_stats(b).write_failed.load();
+      const BoardStats &st = session.board_stats(b);
+      if (st.write_failed.load() || st.read_failed.load()) reconnect(session, b, ports[b], pool[b].motor_count, boards, stop, *log);
     }
     if (errors != errors_logged) {
       log->warn("the boards reported {} errors (latest: {})", errors,
@@ -187,11 +213,6 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (midi->dropped() != dropped_logged) {
       dropped_logged = midi->dropped();
       log->warn("{} MIDI events dropped: the engine fell behind", dropped_logged);
-    }
-    if (failed) {
-      log->error("a board's link failed; stopping");
-      rc = 1;
-      break;
     }
     if (o.quiet) continue;
     const auto now = std::chrono::steady_clock::now();
@@ -214,7 +235,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
               static_cast<unsigned long long>(session.latency().max_us()));
   std::fflush(stdout);
   spdlog::shutdown();
-  return rc;
+  return 0;
 }
 
 }  // namespace stepchoir

@@ -241,3 +241,60 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
     CHECK(quiet.size() == 0);
   }
 }
+
+TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and restores the held note",
+          "[e2e][live]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string link = e2e::scratch("live-unplug.pty");
+  const std::string trace_before = e2e::scratch("live-unplug-1.csv"), trace_after = e2e::scratch("live-unplug-2.csv");
+  auto board = [&](const std::string &trace) {
+    return std::make_unique<VboardProcess>(
+        std::vector<std::string>{"--board", "uno", "--link", link, "--trace", trace, "--quiet", "--no-measure"});
+  };
+  auto vb = board(trace_before);
+  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", link, "--quiet"},
+                    true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  REQUIRE(line.rfind("live: MIDI", 0) == 0);
+  auto wait_for = [&](const std::string &text) {
+    for (std::string l; live.read_line(&l, 20000);)
+      if (l.find(text) != std::string::npos) return true;
+    return false;
+  };
+
+  keys.send(stepchoir::note_on(0, 60, 100));  // held across the unplug
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  REQUIRE(vb->stop() == 0);  // unplugged
+  REQUIRE(wait_for("link lost"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  vb = board(trace_after);  // plugged in again, same path
+  REQUIRE(wait_for("reconnected"));
+  const double back_s = Sender::now_s();
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  const double off60_s = keys.send(stepchoir::note_off(0, 60));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const double on64_s = keys.send(stepchoir::note_on(0, 64, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const double off64_s = keys.send(stepchoir::note_off(0, 64));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb->stop() == 0);
+
+  const auto before = played_notes(tr::read_trace(trace_before));
+  REQUIRE(before.size() == 1);
+  CHECK(std::fabs(before[0].pitch - 60) < kPitchToleranceSemitones);
+  const tr::Trace after_trace = tr::read_trace(trace_after);
+  const auto after = played_notes(after_trace);
+  const double tolerance_s = kTimeToleranceS + pacing_lag_max_s(after_trace);
+  REQUIRE(after.size() == 2);
+  // The held note sounds again as soon as the board is back, until its key is released.
+  CHECK(std::fabs(after[0].pitch - 60) < kPitchToleranceSemitones);
+  CHECK(after[0].end_s - after[0].start_s > off60_s - back_s - tolerance_s);
+  CHECK(after[0].end_s - after[0].start_s < off60_s - back_s + 0.2 + tolerance_s);
+  // The next note plays in time.
+  CHECK(std::fabs(after[1].pitch - 64) < kPitchToleranceSemitones);
+  CHECK(std::fabs((after[1].start_s - after[0].end_s) - (on64_s - off60_s)) < tolerance_s);
+  CHECK(std::fabs((after[1].end_s - after[1].start_s) - (off64_s - on64_s)) < tolerance_s);
+}

@@ -280,3 +280,46 @@ TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]"
   for (const auto &f : link.frames()) heartbeats += f.size() == 1 && f[0] == sc::kMsgHeartbeat;
   CHECK(heartbeats >= 2);
 }
+
+TEST_CASE("live: after a board restart the coalescer restores what should sound", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  c.add({0, 1000000, 1});
+  c.add({1, 1100000, 1});
+  REQUIRE(c.take_latest(out, nullptr) == 2);
+  c.add({1, 0, 2});
+  REQUIRE(c.take_latest(out, nullptr) == 1);  // motor 1 silent on the old board
+  c.add({2, 1200000, 3});                      // not sent yet when the board went away
+  c.board_restarted();
+  REQUIRE(c.take_latest(out, nullptr) == 2);
+  CHECK(out[0].motor == 0);
+  CHECK(out[0].period_q8 == 1000000);
+  CHECK(out[1].motor == 2);
+  CHECK(out[1].period_q8 == 1200000);
+  CHECK_FALSE(c.pending());
+}
+
+TEST_CASE("live: a new link gets the watchdog and the held notes, the old one nothing more", "[live]") {
+  FakeLink first, second;
+  LiveSession s({{&first, 2, kF}}, pool_config({{&first, 2, kF}}, Policy::kPoly));
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  REQUIRE(eventually([&] { return periods_of(entries_of(first.frames()), 0) == std::vector<uint32_t>{a4}; }));
+  REQUIRE(s.detach_link(0));
+  const size_t first_frames = first.frames().size();
+  const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100)));  // played while no board is there
+  REQUIRE(eventually([&] { return s.events() == 2; }));
+  s.attach_link(0, &second);
+  REQUIRE(eventually([&] { return entries_of(second.frames()).size() >= 2; }));
+  s.stop();
+  CHECK(first.frames().size() == first_frames);
+  const auto frames = second.frames();
+  REQUIRE_FALSE(frames.empty());
+  CHECK(frames.front()[0] == sc::kMsgWatchdog);
+  const auto entries = entries_of(frames);
+  CHECK(periods_of(entries, 0) == std::vector<uint32_t>{a4, 0});
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{e5, 0});
+  CHECK(frames.back()[0] == sc::kMsgStopAll);
+}
