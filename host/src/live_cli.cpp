@@ -46,9 +46,10 @@ Policy parse_policy(const std::string &s) {
 // destroyed.
 class VirtualBoard {
  public:
-  // Called from: run_live. Starts <dir of this program>/stepchoir-vboard on link_path and
-  // waits until the link exists; throws std::runtime_error when it cannot.
-  VirtualBoard(const std::string &board, const std::string &link_path) {
+  // Called from: run_live. Starts <dir of this program>/stepchoir-vboard on link_path (with
+  // a trace when trace_path is not empty) and waits until the link exists; throws
+  // std::runtime_error when it cannot.
+  VirtualBoard(const std::string &board, const std::string &link_path, const std::string &trace_path) {
     char self[PATH_MAX];
     const ssize_t n = ::readlink("/proc/self/exe", self, sizeof self - 1);
     if (n <= 0) throw std::runtime_error("cannot find this program's directory");
@@ -56,6 +57,7 @@ class VirtualBoard {
     std::string dir(self);
     path_ = dir.substr(0, dir.rfind('/')) + "/stepchoir-vboard";
     std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet"};
+    if (!trace_path.empty()) args.insert(args.end(), {"--trace", trace_path});
     std::vector<char *> argv;
     for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
     argv.push_back(nullptr);
@@ -172,7 +174,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::vector<std::string> ports = o.ports;
   if (ports.empty()) {
     const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
-    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link);
+    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace);
     std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n",
                 o.vboard_board.c_str(), link.c_str());
     ports.push_back(link);

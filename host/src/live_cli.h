@@ -14,6 +14,7 @@ struct LiveOptions {
   std::vector<std::string> ports;        // boards; none: start the virtual board
   std::string policy = "poly";           // poly | channel | mono
   std::string vboard_board = "uno";      // board the virtual board simulates
+  std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
   bool quiet = false;                    // no status line
 };
 

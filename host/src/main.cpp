@@ -130,6 +130,8 @@ int main(int argc, char **argv) {
       ->default_val(live_opt.midi_api);
   live->add_option("--vboard", live_opt.vboard_board, "Board the virtual board simulates (without --port)")
       ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
+  live->add_option("--vboard-trace", live_opt.vboard_trace,
+                   "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
 
   CLI11_PARSE(app, argc, argv);

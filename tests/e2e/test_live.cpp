@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <random>
@@ -297,4 +298,66 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   CHECK(std::fabs(after[1].pitch - 64) < kPitchToleranceSemitones);
   CHECK(std::fabs((after[1].start_s - after[0].end_s) - (on64_s - off60_s)) < tolerance_s);
   CHECK(std::fabs((after[1].end_s - after[1].start_s) - (off64_s - on64_s)) < tolerance_s);
+}
+
+TEST_CASE("live: without --port it starts the virtual board, says so, and plays on it", "[e2e][live]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live-own-board.csv");
+  std::remove(trace_path.c_str());
+  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--vboard", "mega",
+                     "--vboard-trace", trace_path, "--quiet"},
+                    true);
+  std::string said, line;
+  REQUIRE(live.read_line(&said, 30000));
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << said << " / " << line);
+  CHECK(said.rfind("live: no --port: playing on the virtual board (mega, bundled firmware)", 0) == 0);
+  CHECK(line.find("-> 5 motors") != std::string::npos);
+  const double on_s = keys.send(stepchoir::note_on(0, 69, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  const double off_s = keys.send(stepchoir::note_off(0, 69));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);  // stops its virtual board, which writes the trace
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  CHECK(trace.board == "mega");
+  const auto played = played_notes(trace);
+  REQUIRE(played.size() == 1);
+  CHECK(std::fabs(played[0].pitch - 69) < kPitchToleranceSemitones);
+  CHECK(std::fabs((played[0].end_s - played[0].start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_lag_max_s(trace));
+}
+
+TEST_CASE("live: two boards form one pool of motors", "[e2e][live]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_uno = e2e::scratch("live-pool-uno.csv"), trace_mega = e2e::scratch("live-pool-mega.csv");
+  VboardProcess uno({"--board", "uno", "--trace", trace_uno, "--quiet", "--no-measure"});
+  VboardProcess mega({"--board", "mega", "--trace", trace_mega, "--quiet", "--no-measure"});
+  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", uno.pty(), "--port",
+                     mega.pty(), "--policy", "channel", "--quiet"},
+                    true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.find("-> 9 motors") != std::string::npos);
+  // Channel n plays pool motor n: channel 1 is the Uno's motor 1, channel 6 the Mega's motor 2.
+  keys.send(stepchoir::note_on(1, 57, 100));
+  keys.send(stepchoir::note_on(6, 76, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  keys.send(stepchoir::note_off(1, 57));
+  keys.send(stepchoir::note_off(6, 76));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(uno.stop() == 0);
+  REQUIRE(mega.stop() == 0);
+
+  const auto on_uno = played_notes(tr::read_trace(trace_uno));
+  const auto on_mega = played_notes(tr::read_trace(trace_mega));
+  REQUIRE(on_uno.size() == 1);
+  CHECK(on_uno[0].motor == 1);
+  CHECK(std::fabs(on_uno[0].pitch - 57) < kPitchToleranceSemitones);
+  REQUIRE(on_mega.size() == 1);
+  CHECK(on_mega[0].motor == 2);
+  CHECK(std::fabs(on_mega[0].pitch - 76) < kPitchToleranceSemitones);
 }
