@@ -151,6 +151,32 @@ void reconnect(LiveSession &session, size_t b, const std::string &path, size_t m
   }
 }
 
+// Called from: run_live's loop, once a second. When the MIDI input went away: closes it,
+// releases every note (reset-all-controllers and all-sound-off on every channel: no note-off
+// or pedal release will come for what was down) and says so; while it is away, reopens it as soon as the selector finds a port.
+void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::string &selector, LiveSession &session,
+                      bool tty) {
+  if (midi && midi->still_there()) return;
+  if (midi) {
+    const std::string name = midi->port_name();
+    midi.reset();  // its callback has ended: this thread is now the queue's only producer
+    for (uint8_t ch = 0; ch < 16; ++ch)
+      for (uint8_t cc : {kCcResetAllControllers, kCcAllSoundOff})  // pedals up, bends centred, silence
+        while (!session.midi_queue().try_enqueue(control_change(ch, cc, 0, monotonic_us())))
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::printf("%slive: MIDI input %s is gone; every note released, waiting for it\n", tty ? "\n" : "",
+                name.c_str());
+    std::fflush(stdout);
+    return;
+  }
+  try {
+    midi = std::make_unique<MidiIn>(api, selector, session.midi_queue());
+    std::printf("%slive: MIDI input %s is back\n", tty ? "\n" : "", midi->port_name().c_str());
+    std::fflush(stdout);
+  } catch (const std::exception &) {
+  }
+}
+
 }  // namespace
 
 void print_midi_inputs(const std::string &midi_api) {
@@ -199,8 +225,9 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   uint64_t errors_logged = 0, dropped_logged = 0;
   const bool tty = ::isatty(1);
   auto last_print = std::chrono::steady_clock::now();
-  while (!stop.load()) {
+  for (unsigned tick = 1; !stop.load(); ++tick) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (tick % 10 == 0) watch_midi_input(midi, api, o.midi, session, tty);
     uint64_t errors = 0;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
@@ -212,7 +239,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
                 sc::error_name(session.board_stats(0).last_error.load()));
       errors_logged = errors;
     }
-    if (midi->dropped() != dropped_logged) {
+    if (midi && midi->dropped() != dropped_logged) {
       dropped_logged = midi->dropped();
       log->warn("{} MIDI events dropped: the engine fell behind", dropped_logged);
     }

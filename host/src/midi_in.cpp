@@ -69,6 +69,7 @@ MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : que
       port_name_ = selector.size() > 8 ? selector.substr(8) : "stepchoir in";
       in_->openVirtualPort(port_name_);
       port_name_ = std::string("virtual port '") + port_name_ + "'";
+      is_virtual_ = true;
       return;
     }
     const unsigned count = in_->getPortCount();
@@ -94,6 +95,16 @@ MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : que
   } catch (const RtMidiError &e) {
     throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.getMessage());
   }
+}
+
+bool MidiIn::still_there() {
+  if (is_virtual_) return true;
+  try {
+    for (unsigned i = 0, n = in_->getPortCount(); i < n; ++i)
+      if (in_->getPortName(i) == port_name_) return true;
+  } catch (const RtMidiError &) {
+  }
+  return false;
 }
 
 MidiIn::~MidiIn() {

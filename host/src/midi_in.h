@@ -62,6 +62,10 @@ class MidiIn {
 
   // What was opened, for messages.
   const std::string &port_name() const { return port_name_; }
+  // False once the port opened by name or index is no longer offered (the keyboard was
+  // unplugged, the program owning it quit); a virtual port is always there.
+  // Called from: the main thread, about once a second. Asks the MIDI system: not real-time.
+  bool still_there();
   // Events lost because the queue was full. Called from: any thread.
   uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
   // Channel messages enqueued so far. Called from: any thread.
@@ -75,6 +79,7 @@ class MidiIn {
   std::unique_ptr<RtMidiIn> in_;
   MidiQueue &queue_;
   std::string port_name_;
+  bool is_virtual_ = false;
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> received_{0};
 };

@@ -71,6 +71,13 @@ double pacing_lag_max_s(const tr::Trace &t) {
   return 0;
 }
 
+// Reads the process's stdout until a line contains text (true) or 20 s pass without one.
+bool wait_for_line(ChildProcess &process, const std::string &text) {
+  for (std::string line; process.read_line(&line, 20000);)
+    if (line.find(text) != std::string::npos) return true;
+  return false;
+}
+
 // Sleeps until `t_s` on the steady clock.
 void sleep_until_s(double t_s) {
   const double left = t_s - Sender::now_s();
@@ -259,19 +266,14 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
   REQUIRE(line.rfind("live: MIDI", 0) == 0);
-  auto wait_for = [&](const std::string &text) {
-    for (std::string l; live.read_line(&l, 20000);)
-      if (l.find(text) != std::string::npos) return true;
-    return false;
-  };
 
   keys.send(stepchoir::note_on(0, 60, 100));  // held across the unplug
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   REQUIRE(vb->stop() == 0);  // unplugged
-  REQUIRE(wait_for("link lost"));
+  REQUIRE(wait_for_line(live, "link lost"));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   vb = board(trace_after);  // plugged in again, same path
-  REQUIRE(wait_for("reconnected"));
+  REQUIRE(wait_for_line(live, "reconnected"));
   const double back_s = Sender::now_s();
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const double off60_s = keys.send(stepchoir::note_off(0, 60));
@@ -360,4 +362,44 @@ TEST_CASE("live: two boards form one pool of motors", "[e2e][live]") {
   REQUIRE(on_mega.size() == 1);
   CHECK(on_mega[0].motor == 2);
   CHECK(std::fabs(on_mega[0].pitch - 76) < kPitchToleranceSemitones);
+}
+
+TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it plays again", "[e2e][live]") {
+  JackServer jack(1024);
+  auto keys = std::make_unique<Sender>();
+  const std::string trace_path = e2e::scratch("live-keyboard.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty(), "--quiet"},
+                    true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  REQUIRE(line.rfind("live: MIDI", 0) == 0);
+  keys->send(stepchoir::control_change(0, stepchoir::kCcSustain, 127));
+  const double on60_s = keys->send(stepchoir::note_on(0, 60, 100));  // down, and pedalled, when unplugged
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.reset();  // unplugged
+  const double gone_s = Sender::now_s();
+  REQUIRE(wait_for_line(live, "is gone"));
+  const double noticed_s = Sender::now_s();
+  keys = std::make_unique<Sender>();  // plugged in again
+  REQUIRE(wait_for_line(live, "is back"));
+  const double on_s = keys->send(stepchoir::note_on(0, 64, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const double off_s = keys->send(stepchoir::note_off(0, 64));  // no pedal: it stops here
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  const double tolerance_s = kTimeToleranceS + pacing_lag_max_s(trace);
+  const auto played = played_notes(trace);
+  REQUIRE(played.size() == 2);
+  CHECK(std::fabs(played[0].pitch - 60) < kPitchToleranceSemitones);
+  // The held note sounded until the unplug and stopped by the time the keyboard was reported
+  // gone (checked once a second).
+  const double held_s = played[0].end_s - played[0].start_s;
+  CHECK(held_s > gone_s - on60_s - tolerance_s);
+  CHECK(held_s < noticed_s - on60_s + tolerance_s);
+  CHECK(std::fabs(played[1].pitch - 64) < kPitchToleranceSemitones);
+  CHECK(std::fabs((played[1].end_s - played[1].start_s) - (off_s - on_s)) < tolerance_s);
 }
