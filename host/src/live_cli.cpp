@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "board.h"
+#include "config.h"
 #include "live.h"
 #include "midi_in.h"
 
@@ -32,14 +33,6 @@ namespace {
 std::string note_name(int note) {
   static const char *const kNames[12] = {"C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B"};
   return std::string(kNames[note % 12]) + std::to_string(note / 12 - 1);
-}
-
-// Called from: run_live. "poly" / "channel" / "mono" -> Policy.
-Policy parse_policy(const std::string &s) {
-  if (s == "poly") return Policy::kPoly;
-  if (s == "channel") return Policy::kChannel;
-  if (s == "mono") return Policy::kMono;
-  throw std::invalid_argument("--policy '" + s + "': expected poly, channel or mono");
 }
 
 // The virtual board as a child process, for `live` without --port. Stopped (SIGTERM) when
@@ -177,6 +170,17 @@ void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::str
   }
 }
 
+// Called from: run_live after hello. Sends the configuration of every motor the file lists
+// (up to the board's motor count) and fails when the board refuses one.
+void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
+  for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
+    board.send(config_payload(settings.motors[m].hardware));
+    if (const auto err = board.wait_reply(sc::kMsgError, 100))
+      throw std::runtime_error(port + ": the board refused motor " + std::to_string(m) +
+                               "'s configuration: " + sc::error_name((*err)[1]));
+  }
+}
+
 }  // namespace
 
 void print_midi_inputs(const std::string &midi_api) {
@@ -193,11 +197,18 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   spdlog::init_thread_pool(1024, 1);
   auto log = spdlog::create_async<spdlog::sinks::stderr_color_sink_mt>("live");
   log->set_pattern("stepchoir live: %^%l%$: %v");
-  const Policy policy = parse_policy(o.policy);
-  const MidiApi api = parse_midi_api(o.midi_api);
+  // The file's settings, then the command line's over them.
+  const LiveConfig cfg = o.config.empty() ? LiveConfig{} : load_config(o.config);
+  const std::string midi_selector = o.midi.empty() ? cfg.midi_input : o.midi;
+  const std::string api_name = o.midi_api.empty() ? cfg.midi_api : o.midi_api;
+  const MidiApi api = parse_midi_api(api_name);
+  const Policy policy = o.policy.empty() ? cfg.policy : parse_policy(o.policy);
+  std::vector<std::string> ports = o.ports;
+  if (ports.empty())
+    for (const BoardSettings &b : cfg.boards)
+      if (!b.port.empty()) ports.push_back(b.port);
 
   std::unique_ptr<VirtualBoard> vboard;
-  std::vector<std::string> ports = o.ports;
   if (ports.empty()) {
     const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
     vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace);
@@ -207,16 +218,27 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   }
   std::vector<std::unique_ptr<Board>> boards;
   std::vector<LiveBoard> pool;
-  for (const auto &p : ports) {
-    boards.push_back(std::make_unique<Board>(open_link(p)));
+  for (size_t b = 0; b < ports.size(); ++b) {
+    boards.push_back(std::make_unique<Board>(open_link(ports[b])));
     const Caps caps = boards.back()->hello();
+    if (b < cfg.boards.size()) configure_motors(*boards.back(), caps, cfg.boards[b], ports[b]);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }
-  LiveSession session(pool, pool_config(pool, policy));
-  auto midi = std::make_unique<MidiIn>(api, o.midi, session.midi_queue());
+  AllocatorConfig alloc = pool_config(pool, policy);
+  alloc.priority = cfg.priority;
+  alloc.a4_hz = cfg.a4_hz;
+  for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b)
+    for (size_t m = 0; b < cfg.boards.size() && m < cfg.boards[b].motors.size() && m < pool[b].motor_count; ++m) {
+      const uint32_t f_cpu_hz = alloc.motors[first + m].f_cpu_hz;
+      alloc.motors[first + m] = cfg.boards[b].motors[m].music;
+      alloc.motors[first + m].f_cpu_hz = f_cpu_hz;
+    }
+  LiveSession session(pool, alloc);
+  auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
+  const char *policy_names[] = {"poly", "channel", "mono"};
   std::printf("live: MIDI %s (%s) -> %zu motors, policy %s; Ctrl-C to stop\n", midi->port_name().c_str(),
-              o.midi_api.c_str(), session.motor_count(), o.policy.c_str());
+              api_name.c_str(), session.motor_count(), policy_names[static_cast<int>(policy)]);
   std::fflush(stdout);
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   if (session.realtime_threads() == 0)
@@ -227,7 +249,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   auto last_print = std::chrono::steady_clock::now();
   for (unsigned tick = 1; !stop.load(); ++tick) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (tick % 10 == 0) watch_midi_input(midi, api, o.midi, session, tty);
+    if (tick % 10 == 0) watch_midi_input(midi, api, midi_selector, session, tty);
     uint64_t errors = 0;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();

@@ -8,11 +8,13 @@
 
 namespace stepchoir {
 
+// Empty strings: not given on the command line (the config file's value, else its default).
 struct LiveOptions {
-  std::string midi = "virtual";          // MidiIn selector: index, name substring, virtual[:NAME]
-  std::string midi_api = "alsa";         // alsa | jack
-  std::vector<std::string> ports;        // boards; none: start the virtual board
-  std::string policy = "poly";           // poly | channel | mono
+  std::string config;                    // TOML file ("" = none)
+  std::string midi;                      // MidiIn selector: index, name substring, virtual[:NAME]
+  std::string midi_api;                  // alsa | jack
+  std::vector<std::string> ports;        // boards; none (and none in the file): the virtual board
+  std::string policy;                    // poly | channel | mono
   std::string vboard_board = "uno";      // board the virtual board simulates
   std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
   bool quiet = false;                    // no status line

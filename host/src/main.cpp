@@ -1,4 +1,4 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "board.h"
+#include "config.h"
 #include "link.h"
 #include "live_cli.h"
 #include "pitch.h"
@@ -120,19 +121,26 @@ int main(int argc, char **argv) {
 
   stepchoir::LiveOptions live_opt;
   auto *live = app.add_subcommand("live", "Play the motors from a MIDI input (Ctrl-C silences them and ends)");
-  live->add_option("--midi", live_opt.midi, "MIDI input: index, part of its name, or virtual[:NAME]")
-      ->default_val(live_opt.midi);
+  live->add_option("--config,-c", live_opt.config, "TOML configuration (stepchoir config --print-default)")
+      ->check(CLI::ExistingFile);
+  live->add_option("--midi", live_opt.midi, "MIDI input: index, part of its name, or virtual[:NAME] (default virtual)");
   live->add_option("--port,-p", live_opt.ports, "Board (repeat for several: their motors form one pool); "
-                                                "none: start the virtual board");
-  live->add_option("--policy", live_opt.policy, "Note allocation")
-      ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(live_opt.policy);
-  live->add_option("--midi-api", live_opt.midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))
-      ->default_val(live_opt.midi_api);
+                                                "none: the file's boards, else the virtual board");
+  live->add_option("--policy", live_opt.policy, "Note allocation (default poly)")
+      ->check(CLI::IsMember({"poly", "channel", "mono"}));
+  live->add_option("--midi-api", live_opt.midi_api, "MIDI API (default alsa)")->check(CLI::IsMember({"alsa", "jack"}));
   live->add_option("--vboard", live_opt.vboard_board, "Board the virtual board simulates (without --port)")
       ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
+
+  auto *config = app.add_subcommand("config", "The live configuration file");
+  auto *print_default = config->add_flag("--print-default", "Print the commented default configuration");
+  std::string check_path;
+  config->add_option("--check", check_path, "Read a configuration file and report the first problem")
+      ->check(CLI::ExistingFile);
+  config->require_option(1);
 
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, on_signal);
@@ -146,6 +154,14 @@ int main(int argc, char **argv) {
       return 0;
     }
     if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
+    if (app.got_subcommand(config)) {
+      if (*print_default) std::fputs(stepchoir::default_config_text(), stdout);
+      if (!check_path.empty()) {
+        const auto c = stepchoir::load_config(check_path);
+        std::printf("%s: ok (%zu boards)\n", check_path.c_str(), c.boards.size());
+      }
+      return 0;
+    }
     stepchoir::Board board(stepchoir::open_link(port));
     if (app.got_subcommand(hello)) {
       print_caps(board.hello());

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <cstdlib>
 #include <memory>
 #include <random>
@@ -412,4 +413,40 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   CHECK(held_s < noticed_s - on60_s + tolerance_s);
   CHECK(std::fabs(played[1].pitch - 64) < kPitchToleranceSemitones);
   CHECK(std::fabs((played[1].end_s - played[1].start_s) - (off_s - on_s)) < tolerance_s);
+}
+
+TEST_CASE("live: a configuration file names the board, configures its motor and transposes it", "[e2e][live]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live-config.csv"), config_path = e2e::scratch("live-config.toml");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  {
+    std::ofstream f(config_path);
+    f << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+      << "[allocation]\npolicy = \"channel\"\n"
+      << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
+      << "[[boards.motors]]\ntranspose = 12\npulse_us = 5\n";
+  }
+  ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
+  settle();
+  keys.send(stepchoir::note_on(0, 60, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.send(stepchoir::note_off(0, 60));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  const auto played = played_notes(trace);
+  REQUIRE(played.size() == 1);
+  CHECK(played[0].motor == 0);
+  CHECK(std::fabs(played[0].pitch - 72) < kPitchToleranceSemitones);
+  const auto width = tr::min_pulse_width_cycles(trace.motor[0].steps);
+  REQUIRE(width);
+  CHECK(*width >= 5 * 16);      // 5 us at 16 MHz
+  CHECK(*width < 5 * 16 + 32);  // not the default 2 us, nor much longer
 }
