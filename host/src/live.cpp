@@ -72,6 +72,15 @@ size_t Coalescer::take_latest(sc::PeriodEntry *out, uint64_t *event_us) noexcept
   return n;
 }
 
+void Coalescer::refresh(size_t motor_count) noexcept {
+  for (size_t m = 0; m < motor_count && m < kMaxMotors; ++m) {
+    Slot &s = slots_[m];
+    if (s.dirty || s.silence_first) continue;  // going out anyway
+    s.dirty = true;
+    s.latest_us = 0;
+  }
+}
+
 void Coalescer::board_restarted() noexcept {
   for (Slot &s : slots_) {
     s.sent = sc::kPeriodSilent;
@@ -84,6 +93,22 @@ bool Coalescer::pending() const noexcept {
   for (const Slot &s : slots_)
     if (s.dirty || s.silence_first) return true;
   return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// EntryBudget
+// ---------------------------------------------------------------------------------------------
+
+void EntryBudget::refill(uint64_t now_us) noexcept {
+  if (last_us_ != 0 && now_us > last_us_) {
+    const uint64_t elapsed_us = std::min<uint64_t>(now_us - last_us_, 10 * kMicro);  // no overflow
+    credit_ = std::min(kLinkBurstEntries * kMicro, credit_ + static_cast<int64_t>(elapsed_us) * kLinkEntriesPerSecond);
+  }
+  last_us_ = now_us;
+}
+
+uint64_t EntryBudget::wait_us() const noexcept {
+  return credit_ >= 0 ? 0 : static_cast<uint64_t>((-credit_ + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -149,9 +174,10 @@ void write_entries(Link &link, BoardStats &stats, LatencyHistogram &latency, con
     for (size_t i = 0; i < count; ++i)
       sc::put_entry(&payload[i * sc::kSetPeriodBytes], e[first + i].motor, e[first + i].period_q8);
     if (!write_payload(link, stats, payload, static_cast<uint8_t>(count * sc::kSetPeriodBytes))) continue;
+    stats.entries_sent.fetch_add(count, std::memory_order_relaxed);
     const uint64_t now = monotonic_us();
-    for (size_t i = 0; i < count; ++i)
-      latency.record(now > event_us[first + i] ? now - event_us[first + i] : 0);
+    for (size_t i = 0; i < count; ++i)  // refreshes (event time 0) are no MIDI event's latency
+      if (event_us[first + i] != 0) latency.record(now > event_us[first + i] ? now - event_us[first + i] : 0);
   }
 }
 
@@ -183,7 +209,8 @@ AllocatorConfig pool_config(const std::vector<LiveBoard> &boards, Policy policy)
   return c;
 }
 
-LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config) : allocator_(config) {
+LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config, int refresh_ms)
+    : allocator_(config), refresh_ms_(refresh_ms) {
   for (const LiveBoard &lb : boards) {
     if (!lb.link || lb.motor_count == 0 || lb.motor_count > sc::kMaxMotors)
       throw std::invalid_argument("live: a board without a link or with an unusable motor count");
@@ -269,6 +296,8 @@ void LiveSession::engine_loop() {
     if (!midi_queue_.wait_dequeue_timed(ev, std::chrono::milliseconds(20))) continue;
     do {
       const size_t n = allocator_.handle(ev, out, Allocator::kMaxMotors);
+      const uint64_t now = monotonic_us();
+      engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
       route(out, n, ev.timestamp_us);
       events_.fetch_add(1, std::memory_order_relaxed);
     } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
@@ -299,21 +328,27 @@ void LiveSession::writer_loop(BoardThreads &b) {
   Coalescer coalescer;
   sc::PeriodEntry entries[Coalescer::kMaxMotors];
   uint64_t event_us[Coalescer::kMaxMotors];
-  auto last_write = Clock::now(), last_status = Clock::now();
+  auto last_write = Clock::now(), last_status = Clock::now(), last_refresh = Clock::now();
   bool parked = false;
+  EntryBudget budget;
+  uint64_t sent_entries = stats.entries_sent.load(std::memory_order_relaxed);
   for (;;) {
     const bool stopping = b.stop_writer.load(std::memory_order_acquire);
+    // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
+    budget.refill(monotonic_us());
+    const uint64_t wait_us = stopping ? 0 : coalescer.pending() ? std::max<uint64_t>(budget.wait_us(), 1) : 10000;
     MotorUpdate u;
-    if (b.updates.wait_dequeue_timed(u, std::chrono::milliseconds(stopping ? 0 : 10))) {
+    if (b.updates.wait_dequeue_timed(u, std::chrono::microseconds(wait_us))) {
       coalescer.add(u);
       while (b.updates.try_dequeue(u)) coalescer.add(u);
-    } else if (stopping) {
+    } else if (stopping && !coalescer.pending()) {
       break;
     }
     const uint32_t detached = b.detach_gen.load(std::memory_order_acquire);
     if (detached != b.attach_gen.load(std::memory_order_acquire)) {  // no link: collect only
       b.writer_parked_gen.store(detached, std::memory_order_release);
       parked = true;
+      if (stopping) break;
       continue;
     }
     Link &link = *b.link.load(std::memory_order_acquire);
@@ -324,7 +359,12 @@ void LiveSession::writer_loop(BoardThreads &b) {
       write_payload(link, stats, wd, sizeof wd);
       coalescer.board_restarted();
     }
-    if (coalescer.pending()) {
+    if (Clock::now() - last_refresh >= std::chrono::milliseconds(refresh_ms_)) {
+      coalescer.refresh(b.board.motor_count);
+      last_refresh = Clock::now();
+    }
+    budget.refill(monotonic_us());
+    if (coalescer.pending() && (budget.can_send() || stopping)) {
       size_t n = coalescer.take_silences(entries, event_us);
       if (n) write_entries(link, stats, *latency_, entries, event_us, n);
       n = coalescer.take_latest(entries, event_us);
@@ -343,6 +383,9 @@ void LiveSession::writer_loop(BoardThreads &b) {
       write_payload(link, stats, &req, 1);
       last_status = now;
     }
+    const uint64_t total = stats.entries_sent.load(std::memory_order_relaxed);
+    budget.spend(total - sent_entries);
+    sent_entries = total;
   }
   // Every motor got its silent entry from the engine's panic; stop-all also empties the board's
   // queue and turns the drivers off.
@@ -388,6 +431,10 @@ void LiveSession::reader_loop(BoardThreads &b) {
           stats.status_frames_bad.store(s.head.frames_bad, std::memory_order_relaxed);
           stats.status_overruns.store(s.head.uart_overruns, std::memory_order_relaxed);
           stats.watchdog_tripped.store(s.head.flags & sc::kStatusWatchdogTripped, std::memory_order_relaxed);
+          uint8_t sounding = 0;
+          for (size_t m = 0; m < s.motors.size() && m < 8; ++m)
+            if (s.motors[m].flags & sc::kMotorSounding) sounding = static_cast<uint8_t>(sounding | (1u << m));
+          stats.sounding_mask.store(sounding, std::memory_order_relaxed);
           stats.last_status_us.store(monotonic_us(), std::memory_order_relaxed);
         } catch (const std::exception &) {
         }

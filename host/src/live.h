@@ -42,6 +42,38 @@ using UpdateQueue = moodycamel::BlockingReaderWriterQueue<MotorUpdate>;
 constexpr int kHeartbeatMs = sc::kWatchdogDefaultMs / 4;
 // Status request (link health) this often.
 constexpr int kStatusEveryMs = 1000;
+// Pacing: the firmware's main loop cannot take motor commands as fast as the line carries
+// them (docs/ARCHITECTURE.md: at full line speed it decodes a fraction of the frames and loses
+// the rest). A writer sends at most kLinkEntriesPerSecond set-period entries a second on
+// average, in bursts of up to kLinkBurstEntries. Measured on the Uno with four motors changing
+// note 20,000 times a second (bench/results/live-throughput.md): about 2,000 entries a second
+// (500 four-entry frames) overran the board's UART; 1,000 did not. A player never meets the
+// limit; beyond it the writer coalesces (latest state per motor, silences kept).
+constexpr int64_t kLinkEntriesPerSecond = 1200;
+constexpr int64_t kLinkBurstEntries = 8;
+
+// Every motor's state is sent again this often, so that a frame the board lost (line noise,
+// an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
+// period keeps its phase; silence to a silent motor does nothing.
+constexpr int kRefreshMs = 250;
+
+// A budget of set-period entries refilled at kLinkEntriesPerSecond up to kLinkBurstEntries.
+// Pure; the writer owns one.
+class EntryBudget {
+ public:
+  // Called from: the writer thread, with the monotonic time. Does not allocate.
+  void refill(uint64_t now_us) noexcept;
+  // True when a frame may go now (the budget may then go negative by that frame's entries).
+  bool can_send() const noexcept { return credit_ >= 0; }
+  void spend(size_t entries) noexcept { credit_ -= static_cast<int64_t>(entries) * kMicro; }
+  // How long until can_send(), in us (0 when it already can).
+  uint64_t wait_us() const noexcept;
+
+ private:
+  static constexpr int64_t kMicro = 1000000;     // credit in millionths of an entry, so that
+  int64_t credit_ = kLinkBurstEntries * kMicro;  // 1 us adds exactly kLinkEntriesPerSecond
+  uint64_t last_us_ = 0;
+};
 
 // The latest state per motor of one board, while the link is busy. Pure; owned by the writer.
 // A motor that went silent and then got a new note before the silence was sent keeps both:
@@ -58,6 +90,9 @@ class Coalescer {
   size_t take_silences(sc::PeriodEntry *out, uint64_t *event_us) noexcept;
   // Writes every motor's latest pending state; returns the count.
   size_t take_latest(sc::PeriodEntry *out, uint64_t *event_us) noexcept;
+  // Marks motors 0 .. motor_count-1 to be sent again with their latest state (the entries
+  // carry event time 0: no MIDI event behind them). Called from: the writer thread.
+  void refresh(size_t motor_count) noexcept;
   // After the board was replaced by a fresh (silent) one: every motor whose latest state is a
   // note becomes pending again, so take_latest restores what should be sounding.
   void board_restarted() noexcept;
@@ -98,13 +133,14 @@ class LatencyHistogram {
 // What one board's threads did, for the status line and logs. Written by its writer and
 // reader threads, read by anyone.
 struct BoardStats {
-  std::atomic<uint64_t> frames_sent{0}, bytes_sent{0}, heartbeats{0}, coalesced{0};
+  std::atomic<uint64_t> frames_sent{0}, bytes_sent{0}, entries_sent{0}, heartbeats{0}, coalesced{0};
   std::atomic<bool> write_failed{false}, read_failed{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
   std::atomic<uint64_t> last_status_us{0}; // when the latest status reply came (monotonic_us)
   std::atomic<uint32_t> status_frames_bad{0}, status_overruns{0};
   std::atomic<bool> watchdog_tripped{false};
+  std::atomic<uint8_t> sounding_mask{0};   // bit m: the board said motor m is sounding
 };
 
 // One board of the pool: its link (owned by the caller, alive until stop()) and capabilities.
@@ -130,7 +166,9 @@ class LiveSession {
 
   // Builds the queues and the allocator (config.motor_count must be the pool's motor count).
   // Called from: setup code. Allocates; throws std::invalid_argument on a bad configuration.
-  LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config);
+  // refresh_ms: how often every motor's state is sent again (kRefreshMs; tests that check
+  // exact frame sequences turn it down).
+  LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config, int refresh_ms = kRefreshMs);
   ~LiveSession();  // stop()s
   LiveSession(const LiveSession &) = delete;
   LiveSession &operator=(const LiveSession &) = delete;
@@ -169,6 +207,8 @@ class LiveSession {
   int realtime_threads() const noexcept { return realtime_.load(); }
   // MIDI event arrival -> its frame handed to the OS (write() returned), per motor entry.
   const LatencyHistogram &latency() const { return *latency_; }
+  // MIDI event arrival -> the engine has applied it (the first hop), per event.
+  const LatencyHistogram &engine_latency() const { return *engine_latency_; }
 
  private:
   struct BoardThreads {
@@ -197,8 +237,10 @@ class LiveSession {
   std::array<std::atomic<int16_t>, Allocator::kMaxMotors> notes_{};
   std::atomic<uint64_t> events_{0};
   std::unique_ptr<LatencyHistogram> latency_ = std::make_unique<LatencyHistogram>();
+  std::unique_ptr<LatencyHistogram> engine_latency_ = std::make_unique<LatencyHistogram>();
   std::atomic<bool> stop_engine_{false};
   std::atomic<int> realtime_{0};
+  int refresh_ms_ = kRefreshMs;
   std::thread engine_;
   bool started_ = false, stopped_ = false;
 };

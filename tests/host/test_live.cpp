@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -88,6 +89,7 @@ bool eventually(F cond) {
 }
 
 const uint32_t kF = 16000000;
+const int kNoRefresh = 3600 * 1000;  // ms: no state refresh while a test checks exact frames
 
 }  // namespace
 
@@ -203,7 +205,7 @@ TEST_CASE("live: pool configuration spans the boards", "[live]") {
 
 TEST_CASE("live: notes reach the link as set-period frames, and stop silences and stops all", "[live]") {
   FakeLink link;
-  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly));
+  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
   const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
   const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
@@ -232,7 +234,7 @@ TEST_CASE("live: notes reach the link as set-period frames, and stop silences an
 
 TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {
   FakeLink link;
-  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel));
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), kNoRefresh);
   s.start();
   const uint32_t c4 = hz_to_period_q8(note_hz(60), kF);
   REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel 0 -> motor 0
@@ -271,7 +273,7 @@ TEST_CASE("live: a slow link gets the latest states, every silence, and ends sil
 
 TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]") {
   FakeLink link;
-  LiveSession s({{&link, 1, kF}}, pool_config({{&link, 1, kF}}, Policy::kPoly));
+  LiveSession s({{&link, 1, kF}}, pool_config({{&link, 1, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
   // Liveness only: at least two heartbeats come, however slow the machine.
   REQUIRE(eventually([&] { return s.board_stats(0).heartbeats.load() >= 2; }));
@@ -301,7 +303,7 @@ TEST_CASE("live: after a board restart the coalescer restores what should sound"
 
 TEST_CASE("live: a new link gets the watchdog and the held notes, the old one nothing more", "[live]") {
   FakeLink first, second;
-  LiveSession s({{&first, 2, kF}}, pool_config({{&first, 2, kF}}, Policy::kPoly));
+  LiveSession s({{&first, 2, kF}}, pool_config({{&first, 2, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
   const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
   REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
@@ -322,4 +324,77 @@ TEST_CASE("live: a new link gets the watchdog and the held notes, the old one no
   CHECK(periods_of(entries, 0) == std::vector<uint32_t>{a4, 0});
   CHECK(periods_of(entries, 1) == std::vector<uint32_t>{e5, 0});
   CHECK(frames.back()[0] == sc::kMsgStopAll);
+}
+
+TEST_CASE("live: the entry budget allows a burst, then the average rate", "[live]") {
+  EntryBudget b;
+  b.refill(1000000);
+  REQUIRE(b.can_send());
+  CHECK(b.wait_us() == 0);
+  b.spend(static_cast<size_t>(kLinkBurstEntries) + 4);  // a burst, then a four-note frame over
+  CHECK_FALSE(b.can_send());
+  const uint64_t wait = b.wait_us();
+  CHECK(wait == static_cast<uint64_t>((4 * 1000000 + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond));
+  b.refill(1000000 + wait - 1);
+  CHECK_FALSE(b.can_send());
+  b.refill(1000000 + wait);
+  CHECK(b.can_send());
+  b.refill(1000000 + 60 * 1000000ull);  // a minute idle: no more than one burst saved up
+  b.spend(static_cast<size_t>(kLinkBurstEntries));
+  CHECK(b.can_send());
+  b.spend(1);
+  CHECK_FALSE(b.can_send());
+}
+
+TEST_CASE("live: the writer keeps to the entry budget when events come faster", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < 2000; ++i) {  // 2000 notes, each on then off, as fast as the queue takes them
+    const uint8_t n = static_cast<uint8_t>(40 + i % 40);
+    while (!s.midi_queue().try_enqueue(note_on(0, n, 100))) std::this_thread::yield();
+    while (!s.midi_queue().try_enqueue(note_off(0, n))) std::this_thread::yield();
+  }
+  REQUIRE(eventually([&] { return s.events() == 4000; }));
+  s.stop();
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Upper bound on the entries written: one burst plus the rate over the time it took, plus the
+  // frame that may go over and the final silences.
+  const double allowed = double(kLinkBurstEntries) + double(kLinkEntriesPerSecond) * elapsed_s + 4 + 4;
+  CHECK(static_cast<double>(s.board_stats(0).entries_sent.load()) <= allowed);
+  for (uint8_t m = 0; m < 4; ++m) {
+    const auto p = periods_of(entries_of(link.frames()), m);
+    if (!p.empty()) CHECK(p.back() == 0);
+  }
+}
+
+TEST_CASE("live: every motor's state is sent again periodically", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), 20);
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  // The held note and the silent motor come again and again; the refreshes are no latency sample.
+  REQUIRE(eventually([&] {
+    const auto e = entries_of(link.frames());
+    const auto m0 = periods_of(e, 0);
+    return std::count(m0.begin(), m0.end(), a4) >= 2 && periods_of(e, 1).size() >= 2;
+  }));
+  s.stop();
+  const auto e = entries_of(link.frames());
+  // Motor 0: silence (refreshed before the note came), the note (refreshed), silence (stop()).
+  const auto m0 = periods_of(e, 0);
+  const auto first_note = std::find(m0.begin(), m0.end(), a4);
+  REQUIRE(first_note != m0.end());
+  const auto after_note = std::find(first_note, m0.end(), 0u);
+  CHECK(std::count(m0.begin(), first_note, 0u) == first_note - m0.begin());
+  CHECK(std::count(first_note, after_note, a4) >= 2);  // the note and at least one refresh of it
+  CHECK(std::count(first_note, after_note, a4) == after_note - first_note);
+  REQUIRE(after_note != m0.end());
+  CHECK(std::count(after_note, m0.end(), 0u) == m0.end() - after_note);
+  for (uint32_t p : periods_of(e, 1)) CHECK(p == 0);
+  INFO("latency samples: " << s.latency().count());
+  CHECK(s.latency().count() >= 1);  // the note-on (stop()'s silence may fold into a refresh)
+  CHECK(s.latency().count() <= 2);
 }

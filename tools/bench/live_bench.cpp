@@ -37,11 +37,12 @@ double wire_us(uint8_t payload_bytes) { return sc::frame_wire_size(payload_bytes
 int main(int argc, char **argv) {
   int events = 10000, jack_period = 32;
   double rate_hz = 1000;
-  std::string out_dir = "bench/results", board_name = "uno";
+  std::string out_dir = "bench/results", board_name = "uno", name = "live-latency";
   CLI::App app{"stepchoir-bench-live: live path latency, MIDI callback -> frame handed to the OS"};
   app.add_option("--events", events, "note events to send (default 10000)")->check(CLI::Range(10, 1000000));
   app.add_option("--rate", rate_hz, "events per second (default 1000)")->check(CLI::Range(1.0, 20000.0));
-  app.add_option("--out", out_dir, "directory for live-latency.md (default bench/results)");
+  app.add_option("--out", out_dir, "directory for the results (default bench/results)");
+  app.add_option("--name", name, "results file name without .md (default live-latency)");
   app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames at 48 kHz (default 32)")
       ->check(CLI::Range(16, 4096));
   app.add_option("--board", board_name, "virtual board: uno or mega")->check(CLI::IsMember({"uno", "mega"}));
@@ -69,10 +70,17 @@ int main(int argc, char **argv) {
     keys.send(i % 2 ? note_off(0, static_cast<uint8_t>(48 + (k + 36) % 37))
                     : note_on(0, static_cast<uint8_t>(48 + k % 37), 100));
   }
-  for (int i = 0; i < 100 && session.events() < static_cast<uint64_t>(events); ++i)
+  const double send_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  keys.send(note_off(0, static_cast<uint8_t>(48 + (events / 2 - 1) % 37)));  // the last note struck
+  for (int i = 0; i < 100 && session.events() < static_cast<uint64_t>(events) + 1; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cpu_s = cpu_seconds() - cpu0;
+  // What the board says once everything was released: a status request goes out each second.
+  std::this_thread::sleep_for(std::chrono::milliseconds(2 * kStatusEveryMs + 200));
+  const BoardStats &stats = session.board_stats(0);
+  const unsigned sounding = stats.sounding_mask.load(), frames_bad = stats.status_frames_bad.load(),
+                 overruns = stats.status_overruns.load();
   session.stop();
 
   const LatencyHistogram &h = session.latency();
@@ -82,16 +90,16 @@ int main(int argc, char **argv) {
   const std::time_t now = std::time(nullptr);
   std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
 
-  const std::string path = out_dir + "/live-latency.md";
+  const std::string path = out_dir + "/" + name + ".md";
   std::ofstream out(path);
-  out << "# Live path latency\n\n"
+  out << "# Live path: " << events << " events at " << rate_hz << " per second\n\n"
       << "Command: `" << command << "`\n\n"
       << "Date: " << date << "\n\n"
       << "Method: a private JACK server (`jackd -r -d dummy -p " << jack_period << "`), a sender on a virtual JACK MIDI "
          "output, `stepchoir`'s MidiIn (RtMidi, JACK API) on it, a LiveSession (engine and writer threads) and the real "
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
-      << " per second. Latency per set-period entry: from the timestamp the RtMidi callback takes to the "
+      << " per second, then the last note's release. Latency per set-period entry: from the timestamp the RtMidi callback takes to the "
          "return of the writer's write() on the link (the frame handed to the OS).\n\n"
       << "| measure | value |\n|---|---|\n"
       << "| events sent / reached the RtMidi callback / dropped at the callback | " << events << " / "
@@ -101,10 +109,16 @@ int main(int argc, char **argv) {
       << "| callback -> frame handed to the OS, p50 | " << p50 << " us |\n"
       << "| callback -> frame handed to the OS, p99 | " << p99 << " us |\n"
       << "| callback -> frame handed to the OS, max | " << max << " us |\n"
+      << "| of which callback -> engine applied the event, p50 / p99 / max | " << session.engine_latency().percentile(0.5)
+      << " / " << session.engine_latency().percentile(0.99) << " / " << session.engine_latency().max_us() << " us |\n"
       << "| wire time of one note (" << int(sc::frame_wire_size(sc::kSetPeriodBytes)) << "-byte frame) at "
       << sc::kBaud << " baud | " << wire1 << " us |\n"
       << "| wire time of a 3-note chord in one frame | " << wire_us(3 * sc::kSetPeriodBytes) << " us |\n"
       << "| host p99 + wire (one note) | " << p99 + wire1 << " us |\n"
+      << "| send phase | " << send_s << " s (" << events / send_s << " events per second) |\n"
+      << "| after the last release: motors the board reports sounding (bit mask) | " << sounding << " |\n"
+      << "| board counters: bad frames / UART overruns | " << frames_bad << " / " << overruns << " |\n"
+      << "| updates coalesced by the writer | " << stats.coalesced.load() << " |\n"
       << "| frames written / heartbeats | " << session.board_stats(0).frames_sent.load() << " / "
       << session.board_stats(0).heartbeats.load() << " |\n"
       << "| CPU of this process (sender, MidiIn, engine, writer, reader) | " << 100.0 * cpu_s / wall_s
@@ -119,5 +133,5 @@ int main(int argc, char **argv) {
   std::printf("p50 %llu us, p99 %llu us, max %llu us over %llu samples; wire %.0f us; written %s\n",
               static_cast<unsigned long long>(p50), static_cast<unsigned long long>(p99),
               static_cast<unsigned long long>(max), static_cast<unsigned long long>(h.count()), wire1, path.c_str());
-  return session.events() == static_cast<uint64_t>(events) ? 0 : 1;
+  return session.events() == static_cast<uint64_t>(events) + 1 && sounding == 0 ? 0 : 1;
 }
