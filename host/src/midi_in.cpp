@@ -97,8 +97,14 @@ MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : que
   }
 }
 
+MidiIn::MidiIn(MidiQueue &queue) : queue_(queue) {}
+
+std::unique_ptr<MidiIn> MidiIn::without_port(MidiQueue &queue) {
+  return std::unique_ptr<MidiIn>(new MidiIn(queue));
+}
+
 bool MidiIn::still_there() {
-  if (is_virtual_) return true;
+  if (is_virtual_ || !in_) return true;
   try {
     for (unsigned i = 0, n = in_->getPortCount(); i < n; ++i)
       if (in_->getPortName(i) == port_name_) return true;

@@ -56,6 +56,9 @@ class MidiIn {
   // std::runtime_error naming the selector and the ports there are.
   // Called from: setup code (the main thread), before the engine runs.
   MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue);
+  // A MidiIn with no port: nothing calls on_message but its owner (tests drive the callback's
+  // work directly with it). Called from: tests.
+  static std::unique_ptr<MidiIn> without_port(MidiQueue &queue);
   ~MidiIn();
   MidiIn(const MidiIn &) = delete;
   MidiIn &operator=(const MidiIn &) = delete;
@@ -76,6 +79,7 @@ class MidiIn {
   void on_message(const unsigned char *bytes, size_t len) noexcept;
 
  private:
+  explicit MidiIn(MidiQueue &queue);  // no port: see without_port
   std::unique_ptr<RtMidiIn> in_;
   MidiQueue &queue_;
   std::string port_name_;

@@ -1,10 +1,13 @@
 // test_live.cpp: the live path without a MIDI system or a board: message parsing, the
 // Coalescer, the latency histogram, and a LiveSession writing to a fake link.
 #include <catch2/catch.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -12,6 +15,7 @@
 
 #include "live.h"
 #include "midi_in.h"
+#include "rt_guard.h"
 #include "pitch.h"
 
 using namespace stepchoir;
@@ -397,4 +401,42 @@ TEST_CASE("live: every motor's state is sent again periodically", "[live]") {
   INFO("latency samples: " << s.latency().count());
   CHECK(s.latency().count() >= 1);  // the note-on (stop()'s silence may fold into a refresh)
   CHECK(s.latency().count() <= 2);
+}
+
+TEST_CASE("live: the MIDI callback's work queues stamped events and counts what does not fit", "[live]") {
+  MidiQueue queue(2);
+  auto in = MidiIn::without_port(queue);
+  const uint64_t before_us = monotonic_us();
+  const unsigned char on[] = {0x91, 64, 90};
+  const unsigned char clock[] = {0xF8};
+  in->on_message(on, sizeof on);     // in a Debug build this aborts if it allocates (rt_guard.h)
+  in->on_message(clock, sizeof clock);
+  MidiEvent e{};
+  REQUIRE(queue.try_dequeue(e));
+  CHECK(e.status == 0x91);
+  CHECK(e.data1 == 64);
+  CHECK(e.timestamp_us >= before_us);
+  CHECK_FALSE(queue.try_dequeue(e));  // the clock byte is no channel message
+  for (int i = 0; i < 20; ++i) in->on_message(on, sizeof on);
+  CHECK(in->received() + in->dropped() == 21);
+  CHECK(in->dropped() > 0);
+}
+
+TEST_CASE("live: in Debug builds an allocation inside real-time code aborts", "[live]") {
+  if (!rt_guard_enabled()) {
+    SUCCEED("this build has no real-time guard (it is on in Debug builds)");
+    return;
+  }
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    RtScope rt;
+    volatile int *leak = new int(1);
+    (void)leak;
+    _exit(0);
+  }
+  int status = 0;
+  REQUIRE(waitpid(child, &status, 0) == child);
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGABRT);
 }
