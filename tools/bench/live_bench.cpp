@@ -36,6 +36,7 @@ double wire_us(uint8_t payload_bytes) { return sc::frame_wire_size(payload_bytes
 // and writes bench/results/live-latency.md.
 int main(int argc, char **argv) {
   int events = 10000, jack_period = 32;
+  bool jack_realtime = false;
   double rate_hz = 1000;
   std::string out_dir = "bench/results", board_name = "uno", name = "live-latency";
   CLI::App app{"stepchoir-bench-live: live path latency, MIDI callback -> frame handed to the OS"};
@@ -45,12 +46,13 @@ int main(int argc, char **argv) {
   app.add_option("--name", name, "results file name without .md (default live-latency)");
   app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames at 48 kHz (default 32)")
       ->check(CLI::Range(16, 4096));
+  app.add_flag("--jack-realtime", jack_realtime, "run jackd with realtime scheduling (-R)");
   app.add_option("--board", board_name, "virtual board: uno or mega")->check(CLI::IsMember({"uno", "mega"}));
   CLI11_PARSE(app, argc, argv);
   std::string command;
   for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
 
-  JackServer jack(jack_period);
+  JackServer jack(jack_period, jack_realtime);
   Sender keys;
   VboardProcess vb({"--board", board_name, "--quiet", "--no-measure"});
   Board board(open_link(vb.pty()));
@@ -98,7 +100,7 @@ int main(int argc, char **argv) {
   out << "# Live path: " << events << " events at " << rate_hz << " per second\n\n"
       << "Command: `" << command << "`\n\n"
       << "Date: " << date << "\n\n"
-      << "Method: a private JACK server (`jackd -r -d dummy -p " << jack_period << "`), a sender on a virtual JACK MIDI "
+      << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -p " << jack_period << "`), a sender on a virtual JACK MIDI "
          "output, `stepchoir`'s MidiIn (RtMidi, JACK API) on it, a LiveSession (engine and writer threads) and the real "
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
@@ -131,9 +133,10 @@ int main(int argc, char **argv) {
       << "The firmware's part (frame's last byte -> first STEP edge) is measured on the virtual board "
          "separately; the whole-system figure is this p99 + wire time + that. A note-on on a DIN MIDI cable "
          "takes 960 us (3 bytes at 31,250 baud).\n\n"
-      << "Events that never reached the callback were lost inside JACK (its xruns: the server runs "
-         "without realtime scheduling on a loaded machine), before the live path.\n\n"
-      << "Machine: 2 shared cores, other builds running; JACK without realtime scheduling.\n";
+      << "Events that never reached the callback were lost inside JACK (its xruns on a loaded "
+         "machine), before the live path.\n\n"
+      << "Machine: 2 shared cores, other engineers' builds and virtual boards running; JACK "
+      << (jack_realtime ? "with" : "without") << " realtime scheduling.\n";
   out.close();
   std::printf("p50 %llu us, p99 %llu us, max %llu us over %llu samples; wire %.0f us; written %s\n",
               static_cast<unsigned long long>(p50), static_cast<unsigned long long>(p99),
