@@ -124,7 +124,12 @@ void reconnect(LiveSession &session, size_t b, const std::string &path, size_t m
                std::vector<std::unique_ptr<Board>> &boards, const std::atomic<bool> &stop, spdlog::logger &log) {
   std::printf("\nlive: %s: link lost; reconnecting\n", path.c_str());
   std::fflush(stdout);
-  if (!session.detach_link(b)) log.warn("{}: the writer did not let go of the link in time", path);
+  // The old link may be closed only once the board's threads no longer touch it (a serial
+  // write can block for a second).
+  while (!session.detach_link(b)) {
+    log.warn("{}: the board's threads are still using the lost link; waiting", path);
+    if (stop.load()) return;
+  }
   boards[b].reset();
   while (!stop.load()) {
     try {

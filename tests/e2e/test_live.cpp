@@ -436,6 +436,14 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
       << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
       << "[[boards.motors]]\ntranspose = 12\npulse_us = 5\n";
   }
+  {  // `stepchoir ports` lists the keyboard among the JACK MIDI inputs
+    ChildProcess ports({STEPCHOIR_BIN, "ports", "--midi-api", "jack"}, true);
+    const std::string listed = ports.read_rest(10000);
+    INFO("stepchoir ports said:\n" << listed);
+    CHECK(ports.wait() == 0);
+    CHECK(listed.find("MIDI inputs (jack):") != std::string::npos);
+    CHECK(listed.find(std::string(":") + Sender::kPort) != std::string::npos);
+  }
   ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
