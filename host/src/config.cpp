@@ -65,7 +65,7 @@ std::string get_string(const std::string &source, const toml::table &t, const ch
 MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_t index) {
   known_keys(source, t,
              {"driver", "microsteps", "endstop_active_high", "travel_steps", "pulse_us", "lowest_note", "highest_note",
-              "transpose", "tuning_cents", "muted"},
+              "transpose", "tuning_cents", "muted", "mono_channel"},
              "[[boards.motors]]");
   MotorSettings m;
   m.hardware = default_motor_hardware(index);
@@ -90,6 +90,7 @@ MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_
     fail(source, t, "lowest_note must not be above highest_note");
   m.music.transpose = static_cast<int8_t>(get_int(source, t, "transpose", -48, 48, 0));
   m.music.tuning_cents = get_number(source, t, "tuning_cents", -1200, 1200, 0);
+  m.mono_channel = static_cast<int8_t>(get_int(source, t, "mono_channel", 1, 16, 1) - 1);
   if (const toml::node *n = t.get("muted")) {
     const toml::array *a = n->as_array();
     if (!a) fail(source, *n, "muted: expected an array of MIDI notes");
@@ -208,8 +209,8 @@ input = "virtual"
 api = "alsa"
 
 [allocation]
-# poly: any free motor plays a note; channel: MIDI channel n on motor n; mono: every motor in
-# unison on channel 1, last note wins.
+# poly: any free motor plays a note; channel: MIDI channel n on motor n (n from 1); mono: one
+# note a channel, last note wins, in unison on the motors whose mono_channel it is (default 1).
 policy = "poly"
 # poly, when every motor is busy: steal the "oldest" note, or keep the "lowest" / "highest".
 priority = "oldest"
@@ -233,6 +234,8 @@ priority = "oldest"
 # transpose = 0              # semitones added to every note
 # tuning_cents = 0.0         # added to every note's pitch
 # muted = []                 # MIDI notes this motor must not play (resonances)
+# mono_channel = 1           # policy mono: the MIDI channel (1-16) this motor follows, in unison
+#                            #   with the other motors of that channel
 )";
 }
 

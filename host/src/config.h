@@ -19,6 +19,7 @@ namespace stepchoir {
 struct MotorSettings {
   sc::ConfigBody hardware{};  // .motor is filled in by position
   MotorConfig music;
+  int8_t mono_channel = 0;    // policy mono: the MIDI channel (0-15) whose group the motor is in
 };
 
 struct BoardSettings {

@@ -237,6 +237,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       const uint32_t f_cpu_hz = alloc.motors[first + m].f_cpu_hz;
       alloc.motors[first + m] = cfg.boards[b].motors[m].music;
       alloc.motors[first + m].f_cpu_hz = f_cpu_hz;
+      alloc.mono_channel[first + m] = cfg.boards[b].motors[m].mono_channel;
     }
   LiveSession session(pool, alloc);
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());

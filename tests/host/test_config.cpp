@@ -57,6 +57,7 @@ TEST_CASE("config: the commented board example, uncommented, gives the default m
   CHECK(m.music.lowest_note == MotorConfig{}.lowest_note);
   CHECK(m.music.highest_note == MotorConfig{}.highest_note);
   CHECK(m.music.muted.none());
+  CHECK(m.mono_channel == 0);
 }
 
 TEST_CASE("config: every key is read", "[config]") {
@@ -81,6 +82,7 @@ highest_note = 84
 transpose = -12
 tuning_cents = 3.5
 muted = [40, 52]
+mono_channel = 3
 [[boards.motors]]
 driver = "drv8825"
 [[boards]]
@@ -108,6 +110,8 @@ port = "/dev/ttyACM2"
   CHECK(m.music.tuning_cents == 3.5);
   CHECK(m.music.muted.count() == 2);
   CHECK(m.music.muted.test(52));
+  CHECK(m.mono_channel == 2);
+  CHECK(c.boards[0].motors[1].mono_channel == 0);
   CHECK(c.boards[0].motors[1].hardware.motor == 1);
   CHECK(c.boards[0].motors[1].hardware.driver == sc::kDriverDrv8825);
 }
@@ -126,6 +130,8 @@ TEST_CASE("config: mistakes name the file, line and what is wrong", "[config]") 
   CHECK(error_of("[[boards]]\n[[boards.motors]]\nlowest_note = 90\nhighest_note = 80\n").find("lowest_note must not be above") != std::string::npos);
   CHECK(error_of("[[boards]]\n[[boards.motors]]\ndriver = \"l298\"\n").find("f.toml:3:") == 0);
   CHECK(error_of("[midi]\napi = \"coreaudio\"\n").find("api: expected alsa or jack") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\nmono_channel = 0\n").find("mono_channel = 0: must be 1 to 16") !=
+        std::string::npos);
   CHECK(error_of("boards = 3\n").find("boards: expected [[boards]] tables") != std::string::npos);
   CHECK(error_of("") == "");
 }
