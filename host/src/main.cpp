@@ -1,4 +1,4 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, gcode.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config, gcode.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -8,7 +8,9 @@
 #include <thread>
 
 #include "board.h"
+#include "config.h"
 #include "link.h"
+#include "live_cli.h"
 #include "pitch.h"
 #include "song/gcode_command.h"
 
@@ -114,7 +116,32 @@ int main(int argc, char **argv) {
   tone->add_option("--hz", hz, "Frequency in Hz (steps per second)")->required()->check(CLI::Range(0.0, 40000.0));
   tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
 
-  app.add_subcommand("ports", "List serial ports");
+  std::string ports_midi_api = "alsa";
+  auto *ports = app.add_subcommand("ports", "List serial ports and MIDI inputs");
+  ports->add_option("--midi-api", ports_midi_api, "MIDI API whose inputs to list")->check(CLI::IsMember({"alsa", "jack"}));
+
+  stepchoir::LiveOptions live_opt;
+  auto *live = app.add_subcommand("live", "Play the motors from a MIDI input (Ctrl-C silences them and ends)");
+  live->add_option("--config,-c", live_opt.config, "TOML configuration (stepchoir config --print-default)")
+      ->check(CLI::ExistingFile);
+  live->add_option("--midi", live_opt.midi, "MIDI input: index, part of its name, or virtual[:NAME] (default virtual)");
+  live->add_option("--port,-p", live_opt.ports, "Board (repeat for several: their motors form one pool); "
+                                                "none: the file's boards, else the virtual board");
+  live->add_option("--policy", live_opt.policy, "Note allocation (default poly)")
+      ->check(CLI::IsMember({"poly", "channel", "mono"}));
+  live->add_option("--midi-api", live_opt.midi_api, "MIDI API (default alsa)")->check(CLI::IsMember({"alsa", "jack"}));
+  live->add_option("--vboard", live_opt.vboard_board, "Board the virtual board simulates (without --port)")
+      ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
+  live->add_option("--vboard-trace", live_opt.vboard_trace,
+                   "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
+  live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
+
+  auto *config = app.add_subcommand("config", "The live configuration file");
+  auto *print_default = config->add_flag("--print-default", "Print the commented default configuration");
+  std::string check_path;
+  config->add_option("--check", check_path, "Read a configuration file and report the first problem")
+      ->check(CLI::ExistingFile);
+  config->require_option(1);
   const auto gcode = stepchoir::add_gcode_command(app);
 
   CLI11_PARSE(app, argc, argv);
@@ -124,7 +151,18 @@ int main(int argc, char **argv) {
 
   try {
     if (app.got_subcommand("ports")) {
-      for (const auto &p : stepchoir::list_serial_ports()) std::printf("%s\n", p.c_str());
+      std::printf("serial ports:\n");
+      for (const auto &p : stepchoir::list_serial_ports()) std::printf("  %s\n", p.c_str());
+      stepchoir::print_midi_inputs(ports_midi_api);
+      return 0;
+    }
+    if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
+    if (app.got_subcommand(config)) {
+      if (*print_default) std::fputs(stepchoir::default_config_text(), stdout);
+      if (!check_path.empty()) {
+        const auto c = stepchoir::load_config(check_path);
+        std::printf("%s: ok (%zu boards)\n", check_path.c_str(), c.boards.size());
+      }
       return 0;
     }
     stepchoir::Board board(stepchoir::open_link(port));

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "board.h"
+#include "config.h"
 #include "e2e_util.h"
 #include "trace.h"
 
@@ -32,17 +33,8 @@ using StoppableVboard = VboardProcess;
 // A ConfigBody for `motor`: A4988 at 16 microsteps, switches active low (the vboard's default),
 // the full period range, no onset ramp, 2 us pulses, and the given travel.
 inline sc::ConfigBody motor_config(uint8_t motor, uint32_t travel_steps) {
-  sc::ConfigBody c{};
-  c.motor = motor;
-  c.driver = sc::kDriverA4988;
-  c.microsteps = 16;
-  c.endstop_active_high = 0;
+  sc::ConfigBody c = stepchoir::default_motor_hardware(motor);
   c.travel_steps = travel_steps;
-  c.min_period_q8 = sc::kPeriodQ8Min;
-  c.max_period_q8 = sc::kPeriodQ8Max;
-  c.start_period_q8 = 0;
-  c.accel_q8 = 0;
-  c.pulse_us = 2;
   return c;
 }
 

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "child_process.h"
+
 extern char **environ;
 
 class VboardProcess {
@@ -65,11 +67,8 @@ class VboardProcess {
   // later calls), -1 if a signal killed it.
   int wait() {
     if (pid_ <= 0) return status_;
-    int status = 0;
-    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
+    status_ = wait_exit_status(pid_);
     pid_ = -1;
-    status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     return status_;
   }
 

@@ -1,0 +1,242 @@
+// config.cpp: TOML configuration for `stepchoir live` (toml++), checked key by key.
+#include "config.h"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace stepchoir {
+namespace {
+
+// Called from: every check below. "SOURCE:LINE:COLUMN: message" for a node.
+[[noreturn]] void fail(const std::string &source, const toml::node &node, const std::string &message) {
+  const auto &where = node.source().begin;
+  throw std::runtime_error(source + ":" + std::to_string(where.line) + ":" + std::to_string(where.column) + ": " +
+                           message);
+}
+
+// Called from: the table readers. Refuses keys the table does not know (a typo must not be
+// silently ignored).
+void known_keys(const std::string &source, const toml::table &table, std::initializer_list<const char *> keys,
+                const std::string &where) {
+  for (const auto &[key, node] : table) {
+    bool known = false;
+    for (const char *k : keys) known = known || key.str() == k;
+    if (!known) fail(source, node, "unknown key '" + std::string(key.str()) + "' in " + where);
+  }
+}
+
+// Called from: the table readers. An integer key in [lo, hi], or fallback when absent.
+int64_t get_int(const std::string &source, const toml::table &t, const char *key, int64_t lo, int64_t hi,
+                int64_t fallback) {
+  const toml::node *n = t.get(key);
+  if (!n) return fallback;
+  const auto v = n->value<int64_t>();
+  if (!n->is_integer() || !v) fail(source, *n, std::string(key) + ": expected an integer");
+  if (*v < lo || *v > hi)
+    fail(source, *n, std::string(key) + " = " + std::to_string(*v) + ": must be " + std::to_string(lo) + " to " +
+                         std::to_string(hi));
+  return *v;
+}
+
+// Called from: the table readers. A number key (integer or float), finite, in [lo, hi].
+double get_number(const std::string &source, const toml::table &t, const char *key, double lo, double hi,
+                  double fallback) {
+  const toml::node *n = t.get(key);
+  if (!n) return fallback;
+  const auto v = n->value<double>();
+  if (!v || !std::isfinite(*v)) fail(source, *n, std::string(key) + ": expected a number");
+  if (*v < lo || *v > hi) fail(source, *n, std::string(key) + ": must be " + std::to_string(lo) + " to " + std::to_string(hi));
+  return *v;
+}
+
+// Called from: the table readers. A string key, or fallback when absent.
+std::string get_string(const std::string &source, const toml::table &t, const char *key, const std::string &fallback) {
+  const toml::node *n = t.get(key);
+  if (!n) return fallback;
+  if (!n->is_string()) fail(source, *n, std::string(key) + ": expected a string");
+  return *n->value<std::string>();
+}
+
+// Called from: parse_config for each [[boards.motors]] entry.
+MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_t index) {
+  known_keys(source, t,
+             {"driver", "microsteps", "endstop_active_high", "travel_steps", "pulse_us", "lowest_note", "highest_note",
+              "transpose", "tuning_cents", "muted", "mono_channel"},
+             "[[boards.motors]]");
+  MotorSettings m;
+  m.hardware = default_motor_hardware(index);
+  const std::string driver = get_string(source, t, "driver", "a4988");
+  if (driver == "a4988") m.hardware.driver = sc::kDriverA4988;
+  else if (driver == "drv8825") m.hardware.driver = sc::kDriverDrv8825;
+  else if (driver == "tb6600") m.hardware.driver = sc::kDriverTb6600;
+  else fail(source, *t.get("driver"), "driver '" + driver + "': expected a4988, drv8825 or tb6600");
+  const int64_t micro = get_int(source, t, "microsteps", 1, 32, m.hardware.microsteps);
+  if (micro & (micro - 1)) fail(source, *t.get("microsteps"), "microsteps must be 1, 2, 4, 8, 16 or 32");
+  m.hardware.microsteps = static_cast<uint8_t>(micro);
+  if (const toml::node *n = t.get("endstop_active_high")) {
+    if (!n->is_boolean()) fail(source, *n, "endstop_active_high: expected true or false");
+    m.hardware.endstop_active_high = *n->value<bool>() ? 1 : 0;
+  }
+  m.hardware.travel_steps = static_cast<uint32_t>(get_int(source, t, "travel_steps", 0, sc::kMaxTravelSteps,
+                                                          m.hardware.travel_steps));
+  m.hardware.pulse_us = static_cast<uint8_t>(get_int(source, t, "pulse_us", 2, 10, m.hardware.pulse_us));
+  m.music.lowest_note = static_cast<uint8_t>(get_int(source, t, "lowest_note", 0, 127, m.music.lowest_note));
+  m.music.highest_note = static_cast<uint8_t>(get_int(source, t, "highest_note", 0, 127, m.music.highest_note));
+  if (m.music.lowest_note > m.music.highest_note)
+    fail(source, t, "lowest_note must not be above highest_note");
+  m.music.transpose = static_cast<int8_t>(get_int(source, t, "transpose", -48, 48, 0));
+  m.music.tuning_cents = get_number(source, t, "tuning_cents", -1200, 1200, 0);
+  m.mono_channel = static_cast<int8_t>(get_int(source, t, "mono_channel", 1, 16, 1) - 1);
+  if (const toml::node *n = t.get("muted")) {
+    const toml::array *a = n->as_array();
+    if (!a) fail(source, *n, "muted: expected an array of MIDI notes");
+    for (const toml::node &e : *a) {
+      const auto v = e.value<int64_t>();
+      if (!e.is_integer() || !v || *v < 0 || *v > 127) fail(source, e, "muted: MIDI notes are 0 to 127");
+      m.music.muted.set(static_cast<size_t>(*v));
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
+sc::ConfigBody default_motor_hardware(uint8_t motor) {
+  sc::ConfigBody c{};
+  c.motor = motor;
+  c.driver = sc::kDriverA4988;
+  c.microsteps = 16;
+  c.endstop_active_high = 0;
+  c.travel_steps = 3200;
+  c.min_period_q8 = sc::kPeriodQ8Min;
+  c.max_period_q8 = sc::kPeriodQ8Max;
+  c.start_period_q8 = 0;
+  c.accel_q8 = 0;
+  c.pulse_us = 2;
+  return c;
+}
+
+Policy parse_policy(const std::string &s) {
+  if (s == "poly") return Policy::kPoly;
+  if (s == "channel") return Policy::kChannel;
+  if (s == "mono") return Policy::kMono;
+  throw std::invalid_argument("policy '" + s + "': expected poly, channel or mono");
+}
+
+LiveConfig parse_config(const std::string &text, const std::string &source) {
+  toml::table root;
+  try {
+    root = toml::parse(text, source);
+  } catch (const toml::parse_error &e) {
+    throw std::runtime_error(source + ":" + std::to_string(e.source().begin.line) + ":" +
+                             std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
+  }
+  known_keys(source, root, {"a4_hz", "midi", "allocation", "boards"}, "the top level");
+  LiveConfig c;
+  c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
+  if (const toml::node *n = root.get("midi")) {
+    const toml::table *t = n->as_table();
+    if (!t) fail(source, *n, "[midi] must be a table");
+    known_keys(source, *t, {"input", "api"}, "[midi]");
+    c.midi_input = get_string(source, *t, "input", c.midi_input);
+    c.midi_api = get_string(source, *t, "api", c.midi_api);
+    if (c.midi_api != "alsa" && c.midi_api != "jack") fail(source, *t->get("api"), "api: expected alsa or jack");
+  }
+  if (const toml::node *n = root.get("allocation")) {
+    const toml::table *t = n->as_table();
+    if (!t) fail(source, *n, "[allocation] must be a table");
+    known_keys(source, *t, {"policy", "priority"}, "[allocation]");
+    try {
+      c.policy = parse_policy(get_string(source, *t, "policy", "poly"));
+    } catch (const std::invalid_argument &e) {
+      fail(source, *t->get("policy"), e.what());
+    }
+    const std::string priority = get_string(source, *t, "priority", "oldest");
+    if (priority == "oldest") c.priority = Priority::kOldest;
+    else if (priority == "lowest") c.priority = Priority::kLowest;
+    else if (priority == "highest") c.priority = Priority::kHighest;
+    else fail(source, *t->get("priority"), "priority '" + priority + "': expected oldest, lowest or highest");
+  }
+  if (const toml::node *n = root.get("boards")) {
+    const toml::array *boards = n->as_array();
+    if (!boards) fail(source, *n, "boards: expected [[boards]] tables");
+    for (const toml::node &b : *boards) {
+      const toml::table *t = b.as_table();
+      if (!t) fail(source, b, "boards: expected [[boards]] tables");
+      known_keys(source, *t, {"port", "motors"}, "[[boards]]");
+      BoardSettings bs;
+      bs.port = get_string(source, *t, "port", "");
+      if (const toml::node *mn = t->get("motors")) {
+        const toml::array *motors = mn->as_array();
+        if (!motors) fail(source, *mn, "motors: expected [[boards.motors]] tables");
+        for (const toml::node &m : *motors) {
+          const toml::table *mt = m.as_table();
+          if (!mt) fail(source, m, "motors: expected [[boards.motors]] tables");
+          if (bs.motors.size() >= sc::kMaxMotors) fail(source, m, "a board has at most 8 motors");
+          bs.motors.push_back(read_motor(source, *mt, static_cast<uint8_t>(bs.motors.size())));
+        }
+      }
+      c.boards.push_back(std::move(bs));
+    }
+  }
+  return c;
+}
+
+LiveConfig load_config(const std::string &path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_config(text.str(), path);
+}
+
+const char *default_config_text() {
+  return R"(# stepchoir live configuration. Every key is optional: what is left out keeps the value shown.
+# Command-line options (--midi, --midi-api, --policy, --port) override the file.
+
+# Tuning reference: the frequency of A4 (MIDI note 69), Hz.
+a4_hz = 440.0
+
+[midi]
+# MIDI input: its index, part of its name, or "virtual" / "virtual:NAME" for a port that other
+# programs connect to.
+input = "virtual"
+# alsa or jack
+api = "alsa"
+
+[allocation]
+# poly: any free motor plays a note; channel: MIDI channel n on motor n (n from 1); mono: one
+# note a channel, last note wins, in unison on the motors whose mono_channel it is (default 1).
+policy = "poly"
+# poly, when every motor is busy: steal the "oldest" note, or keep the "lowest" / "highest".
+priority = "oldest"
+
+# One [[boards]] table per board, in order: their motors form one pool. With no board and no
+# --port, `stepchoir live` starts the virtual board.
+# [[boards]]
+# port = "/dev/ttyACM0"
+#
+# One [[boards.motors]] table per motor of that board, motor 0 first. A listed motor is
+# configured on the board (the values below are the defaults); motors not listed keep the
+# board's own settings and the default range.
+# [[boards.motors]]
+# driver = "a4988"           # a4988, drv8825 or tb6600
+# microsteps = 16            # 1, 2, 4, 8, 16 or 32, as the driver supports (TB6600: its DIP switches)
+# endstop_active_high = false  # true: a pressed switch reads HIGH
+# travel_steps = 3200        # length of travel in steps; 0 = no soft limits
+# pulse_us = 2               # STEP high time, 2 to 10 us (TB6600: 5)
+# lowest_note = 21           # playable range, MIDI notes; notes outside fold by octaves
+# highest_note = 108
+# transpose = 0              # semitones added to every note
+# tuning_cents = 0.0         # added to every note's pitch
+# muted = []                 # MIDI notes this motor must not play (resonances)
+# mono_channel = 1           # policy mono: the MIDI channel (1-16) this motor follows, in unison
+#                            #   with the other motors of that channel
+)";
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,59 @@
+// config.h: the `stepchoir live` configuration file (TOML): boards, motors, allocation, MIDI.
+//
+// Every key is optional; what is missing keeps its default. `stepchoir config --print-default`
+// prints default_config_text(), a commented file that loads to exactly the defaults.
+#ifndef STEPCHOIR_HOST_CONFIG_H
+#define STEPCHOIR_HOST_CONFIG_H
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "allocator.h"
+#include "stepchoir_protocol.h"
+
+namespace stepchoir {
+
+// One motor as the file describes it: the board's driver settings (sent as a config frame)
+// and its musical settings (for the allocator; f_cpu_hz comes from the board's hello).
+struct MotorSettings {
+  sc::ConfigBody hardware{};  // .motor is filled in by position
+  MotorConfig music;
+  int8_t mono_channel = 0;    // policy mono: the MIDI channel (0-15) whose group the motor is in
+};
+
+struct BoardSettings {
+  std::string port;                   // serial port or link; "" = none given
+  std::vector<MotorSettings> motors;  // in motor order; motors not listed keep their board's defaults
+};
+
+struct LiveConfig {
+  std::string midi_input = "virtual";
+  std::string midi_api = "alsa";
+  Policy policy = Policy::kPoly;
+  Priority priority = Priority::kOldest;
+  double a4_hz = kA4Hz;
+  std::vector<BoardSettings> boards;
+};
+
+// Hardware defaults for one motor: A4988 at 16 microsteps, switches active low, 3200 steps of
+// travel, the whole period range, no onset ramp, 2 us pulses.
+// Called from: the config loader, tests.
+sc::ConfigBody default_motor_hardware(uint8_t motor);
+
+// Reads and checks a configuration file. Throws std::runtime_error "PATH:LINE:COLUMN: what is
+// wrong" for a syntax error, an unknown key, a value of the wrong type or out of range.
+// Called from: `stepchoir live --config`, `stepchoir config --check`.
+LiveConfig load_config(const std::string &path);
+// The same from text; source names it in messages.
+LiveConfig parse_config(const std::string &text, const std::string &source);
+
+// The commented default configuration. Called from: `stepchoir config --print-default`.
+const char *default_config_text();
+
+// "poly" / "channel" / "mono"; throws std::invalid_argument naming the value otherwise.
+Policy parse_policy(const std::string &name);
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_CONFIG_H

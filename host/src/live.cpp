@@ -1,0 +1,446 @@
+// live.cpp: engine, writer and reader threads of the live path, and the Coalescer.
+#include "live.h"
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "board.h"
+
+namespace stepchoir {
+
+// ---------------------------------------------------------------------------------------------
+// Coalescer
+// ---------------------------------------------------------------------------------------------
+
+void Coalescer::add(const MotorUpdate &u) noexcept {
+  if (u.motor >= kMaxMotors) return;
+  Slot &s = slots_[u.motor];
+  if (u.period_q8 == sc::kPeriodSilent) {
+    if (s.dirty && s.latest != sc::kPeriodSilent) ++coalesced_;  // a note that never went out
+    s.latest = sc::kPeriodSilent;
+    s.latest_us = u.event_us;
+    s.silence_first = false;  // the silence is now the latest state itself
+    s.dirty = s.sent != sc::kPeriodSilent;
+    return;
+  }
+  if (s.dirty && s.latest == sc::kPeriodSilent && s.sent != sc::kPeriodSilent) {
+    s.silence_first = true;  // keep the silence: the new note must strike again
+    s.silence_us = s.latest_us;
+  } else if (s.dirty) {
+    ++coalesced_;
+  }
+  s.latest = u.period_q8;
+  s.latest_us = u.event_us;
+  s.dirty = true;
+}
+
+size_t Coalescer::take_silences(sc::PeriodEntry *out, uint64_t *event_us) noexcept {
+  size_t n = 0;
+  for (size_t m = 0; m < kMaxMotors; ++m) {
+    Slot &s = slots_[m];
+    if (!s.silence_first) continue;
+    if (event_us) event_us[n] = s.silence_us;
+    out[n++] = sc::PeriodEntry{static_cast<uint8_t>(m), sc::kPeriodSilent};
+    s.sent = sc::kPeriodSilent;
+    s.silence_first = false;
+  }
+  return n;
+}
+
+size_t Coalescer::take_latest(sc::PeriodEntry *out, uint64_t *event_us) noexcept {
+  size_t n = 0;
+  for (size_t m = 0; m < kMaxMotors; ++m) {
+    Slot &s = slots_[m];
+    if (!s.dirty) continue;
+    if (s.silence_first) {  // take_silences was skipped: keep the order anyway
+      if (event_us) event_us[n] = s.silence_us;
+      out[n++] = sc::PeriodEntry{static_cast<uint8_t>(m), sc::kPeriodSilent};
+      s.silence_first = false;
+      continue;
+    }
+    if (event_us) event_us[n] = s.latest_us;
+    out[n++] = sc::PeriodEntry{static_cast<uint8_t>(m), s.latest};
+    s.sent = s.latest;
+    s.dirty = false;
+  }
+  return n;
+}
+
+void Coalescer::refresh(size_t motor_count) noexcept {
+  for (size_t m = 0; m < motor_count && m < kMaxMotors; ++m) {
+    Slot &s = slots_[m];
+    if (s.dirty || s.silence_first) continue;  // going out anyway
+    s.dirty = true;
+    s.latest_us = 0;
+  }
+}
+
+void Coalescer::board_restarted() noexcept {
+  for (Slot &s : slots_) {
+    s.sent = sc::kPeriodSilent;
+    s.silence_first = false;
+    s.dirty = s.latest != sc::kPeriodSilent;
+  }
+}
+
+bool Coalescer::pending() const noexcept {
+  for (const Slot &s : slots_)
+    if (s.dirty || s.silence_first) return true;
+  return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// EntryBudget
+// ---------------------------------------------------------------------------------------------
+
+void EntryBudget::refill(uint64_t now_us) noexcept {
+  if (last_us_ != 0 && now_us > last_us_) {
+    const uint64_t elapsed_us = std::min<uint64_t>(now_us - last_us_, 10 * kMicro);  // no overflow
+    credit_ = std::min(kLinkBurstEntries * kMicro, credit_ + static_cast<int64_t>(elapsed_us) * kLinkEntriesPerSecond);
+  }
+  last_us_ = now_us;
+}
+
+uint64_t EntryBudget::wait_us() const noexcept {
+  return credit_ >= 0 ? 0 : static_cast<uint64_t>((-credit_ + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond);
+}
+
+// ---------------------------------------------------------------------------------------------
+// LatencyHistogram
+// ---------------------------------------------------------------------------------------------
+
+void LatencyHistogram::record(uint64_t us) noexcept {
+  bins_[us < kBins ? us : kBins - 1].fetch_add(1, std::memory_order_relaxed);
+  count_.fetch_add(1, std::memory_order_relaxed);
+  uint64_t m = max_.load(std::memory_order_relaxed);
+  while (us > m && !max_.compare_exchange_weak(m, us, std::memory_order_relaxed)) {
+  }
+}
+
+uint64_t LatencyHistogram::percentile(double q) const noexcept {
+  const uint64_t n = count();
+  if (n == 0) return 0;
+  const uint64_t rank = q <= 0 ? 1 : static_cast<uint64_t>(std::ceil(q * static_cast<double>(n)));
+  uint64_t seen = 0;
+  for (size_t i = 0; i < kBins; ++i) {
+    seen += bins_[i].load(std::memory_order_relaxed);
+    if (seen >= rank) return i;
+  }
+  return kBins - 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// LiveSession
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Called from: writer_loop (and start). Encodes a payload and writes it; counts it. Does not
+// allocate; blocks in Link::write.
+bool write_payload(Link &link, BoardStats &stats, const uint8_t *payload, uint8_t len) noexcept {
+  uint8_t wire[sc::kMaxFrameWire];
+  const uint8_t n = sc::encode_frame(payload, len, wire);
+  if (n == 0) return false;
+  bool ok = false;
+  try {
+    ok = link.write(wire, n);
+  } catch (...) {
+  }
+  if (!ok) {
+    stats.write_failed.store(true, std::memory_order_relaxed);
+    return false;
+  }
+  stats.frames_sent.fetch_add(1, std::memory_order_relaxed);
+  stats.bytes_sent.fetch_add(n, std::memory_order_relaxed);
+  return true;
+}
+
+// Called from: writer_loop. One set-period frame for entries; records each entry's latency
+// once write() returned. Does not allocate.
+void write_entries(Link &link, BoardStats &stats, LatencyHistogram &latency, const sc::PeriodEntry *e,
+                   const uint64_t *event_us, size_t n) noexcept {
+  uint8_t payload[sc::kMaxPayload];
+  const size_t per_frame = sc::kMaxPayload / sc::kSetPeriodBytes;
+  for (size_t first = 0; first < n; first += per_frame) {
+    const size_t count = std::min(per_frame, n - first);
+    for (size_t i = 0; i < count; ++i)
+      sc::put_entry(&payload[i * sc::kSetPeriodBytes], e[first + i].motor, e[first + i].period_q8);
+    if (!write_payload(link, stats, payload, static_cast<uint8_t>(count * sc::kSetPeriodBytes))) continue;
+    stats.entries_sent.fetch_add(count, std::memory_order_relaxed);
+    const uint64_t now = monotonic_us();
+    for (size_t i = 0; i < count; ++i)  // refreshes (event time 0) are no MIDI event's latency
+      if (event_us[first + i] != 0) latency.record(now > event_us[first + i] ? now - event_us[first + i] : 0);
+  }
+}
+
+// Called from: the engine and writer threads as they start. Asks for real-time scheduling
+// (SCHED_FIFO), so that a busy machine does not delay their wake-ups; without the privilege
+// the thread keeps normal scheduling. Returns whether it got it.
+bool make_realtime(int priority) noexcept {
+  sched_param p{};
+  p.sched_priority = priority;
+  return pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+}
+
+}  // namespace
+
+AllocatorConfig pool_config(const std::vector<LiveBoard> &boards, Policy policy) {
+  AllocatorConfig c;
+  size_t total = 0;
+  for (const LiveBoard &b : boards) {
+    for (size_t m = 0; m < b.motor_count && total + m < Allocator::kMaxMotors; ++m)
+      c.motors[total + m].f_cpu_hz = b.f_cpu_hz;
+    total += b.motor_count;
+  }
+  if (total == 0 || total > Allocator::kMaxMotors)
+    throw std::invalid_argument("the boards have " + std::to_string(total) + " motors in all; 1 to " +
+                                std::to_string(Allocator::kMaxMotors) + " can play");
+  c.motor_count = static_cast<uint8_t>(total);
+  c.policy = policy;
+  for (size_t m = 0; m < total; ++m) c.mono_channel[m] = 0;  // mono: every motor in unison on channel 1
+  return c;
+}
+
+LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config, int refresh_ms)
+    : allocator_(config), refresh_ms_(refresh_ms) {
+  for (const LiveBoard &lb : boards) {
+    if (!lb.link || lb.motor_count == 0 || lb.motor_count > sc::kMaxMotors)
+      throw std::invalid_argument("live: a board without a link or with an unusable motor count");
+    auto b = std::make_unique<BoardThreads>();
+    b->board = lb;
+    b->link.store(lb.link);
+    b->first_motor = motor_count_;
+    for (size_t m = 0; m < lb.motor_count && motor_count_ + m < Allocator::kMaxMotors; ++m)
+      board_of_[motor_count_ + m] = static_cast<uint8_t>(boards_.size());
+    motor_count_ += lb.motor_count;
+    boards_.push_back(std::move(b));
+  }
+  if (motor_count_ != config.motor_count)
+    throw std::invalid_argument("live: the allocator has " + std::to_string(config.motor_count) +
+                                " motors, the boards " + std::to_string(motor_count_));
+  for (auto &n : notes_) n.store(-1);
+}
+
+LiveSession::~LiveSession() { stop(); }
+
+void LiveSession::start() {
+  if (started_) return;
+  started_ = true;
+  for (auto &b : boards_) {
+    uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+    sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
+    write_payload(*b->link.load(), *b->stats, wd, sizeof wd);
+  }
+  for (auto &b : boards_) {
+    BoardThreads *p = b.get();
+    p->reader = std::thread([this, p] { reader_loop(*p); });
+    p->writer = std::thread([this, p] { writer_loop(*p); });
+  }
+  engine_ = std::thread([this] { engine_loop(); });
+}
+
+void LiveSession::stop() {
+  if (!started_ || stopped_) return;
+  stopped_ = true;
+  stop_engine_.store(true);
+  engine_.join();  // its last act: a silent entry for every motor
+  for (auto &b : boards_) b->stop_writer.store(true);
+  for (auto &b : boards_) b->writer.join();  // each drains its queue, then sends stop-all
+  for (auto &b : boards_) b->stop_reader.store(true);
+  for (auto &b : boards_) b->reader.join();
+}
+
+bool LiveSession::detach_link(size_t board, int timeout_ms) {
+  BoardThreads &b = *boards_.at(board);
+  const uint32_t gen = b.detach_gen.load() + 1;
+  b.detach_gen.store(gen, std::memory_order_release);
+  const auto end = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  while (b.writer_parked_gen.load(std::memory_order_acquire) != gen ||
+         b.reader_parked_gen.load(std::memory_order_acquire) != gen) {
+    if (Clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+void LiveSession::attach_link(size_t board, Link *link) {
+  BoardThreads &b = *boards_.at(board);
+  b.link.store(link, std::memory_order_release);
+  b.board.link = link;
+  b.stats->write_failed.store(false);
+  b.stats->read_failed.store(false);
+  b.stats->last_status_us.store(0);
+  b.attach_gen.store(b.detach_gen.load(), std::memory_order_release);
+}
+
+int LiveSession::motor_note(size_t m) const noexcept {
+  return m < notes_.size() ? notes_[m].load(std::memory_order_relaxed) : -1;
+}
+
+// The engine thread: MIDI events -> allocator -> per-board updates; on stop, silence.
+// Per event: Allocator::handle (table walks and one exp2 per retuned motor, a few us) and
+// one try_enqueue per changed motor. Never allocates, locks or logs.
+void LiveSession::engine_loop() {
+  realtime_.fetch_add(make_realtime(kEnginePriority) ? 1 : 0);
+  sc::PeriodEntry out[Allocator::kMaxMotors];
+  MidiEvent ev;
+  while (!stop_engine_.load(std::memory_order_acquire)) {
+    if (!midi_queue_.wait_dequeue_timed(ev, std::chrono::milliseconds(20))) continue;
+    do {
+      const size_t n = allocator_.handle(ev, out, Allocator::kMaxMotors);
+      const uint64_t now = monotonic_us();
+      engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
+      route(out, n, ev.timestamp_us);
+      events_.fetch_add(1, std::memory_order_relaxed);
+    } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
+  }
+  const size_t n = allocator_.panic(out, Allocator::kMaxMotors);
+  route(out, n, monotonic_us());
+}
+
+// Called from: the engine thread. Hands each entry to its board's writer and publishes the
+// motor's note. Waits (yielding) only when a writer's queue is full, which a stuck link causes.
+void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us) {
+  for (size_t i = 0; i < n; ++i) {
+    const size_t m = entries[i].motor;
+    BoardThreads &b = *boards_[board_of_[m]];
+    const MotorUpdate u{static_cast<uint8_t>(m - b.first_motor), entries[i].period_q8, event_us};
+    while (!b.updates.try_enqueue(u)) std::this_thread::yield();
+    const MotorState s = allocator_.motor(m);
+    notes_[m].store(s.sounding && s.period_q8 ? s.played_note : -1, std::memory_order_relaxed);
+  }
+}
+
+// One board's writer thread: coalesced set-period frames, heartbeats, status requests; at the
+// end stop-all. Budget per wake: drain the queue (tens of ns an update), encode at most two
+// frames (< 1 us), then Link::write (a syscall; blocks while the OS buffer is full).
+void LiveSession::writer_loop(BoardThreads &b) {
+  realtime_.fetch_add(make_realtime(kWriterPriority) ? 1 : 0);
+  BoardStats &stats = *b.stats;
+  Coalescer coalescer;
+  sc::PeriodEntry entries[Coalescer::kMaxMotors];
+  uint64_t event_us[Coalescer::kMaxMotors];
+  auto last_write = Clock::now(), last_status = Clock::now(), last_refresh = Clock::now();
+  bool parked = false;
+  EntryBudget budget;
+  uint64_t sent_entries = stats.entries_sent.load(std::memory_order_relaxed);
+  for (;;) {
+    const bool stopping = b.stop_writer.load(std::memory_order_acquire);
+    // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
+    budget.refill(monotonic_us());
+    const uint64_t wait_us = stopping ? 0 : coalescer.pending() ? std::max<uint64_t>(budget.wait_us(), 1) : 10000;
+    MotorUpdate u;
+    if (b.updates.wait_dequeue_timed(u, std::chrono::microseconds(wait_us))) {
+      coalescer.add(u);
+      while (b.updates.try_dequeue(u)) coalescer.add(u);
+    } else if (stopping && !coalescer.pending()) {
+      break;
+    }
+    const uint32_t detached = b.detach_gen.load(std::memory_order_acquire);
+    if (detached != b.attach_gen.load(std::memory_order_acquire)) {  // no link: collect only
+      b.writer_parked_gen.store(detached, std::memory_order_release);
+      parked = true;
+      if (stopping) break;
+      continue;
+    }
+    Link &link = *b.link.load(std::memory_order_acquire);
+    if (parked) {  // a new board: it starts silent, with its watchdog at the default
+      parked = false;
+      uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+      sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
+      write_payload(link, stats, wd, sizeof wd);
+      coalescer.board_restarted();
+    }
+    if (Clock::now() - last_refresh >= std::chrono::milliseconds(refresh_ms_)) {
+      coalescer.refresh(b.board.motor_count);
+      last_refresh = Clock::now();
+    }
+    budget.refill(monotonic_us());
+    if (coalescer.pending() && (budget.can_send() || stopping)) {
+      size_t n = coalescer.take_silences(entries, event_us);
+      if (n) write_entries(link, stats, *latency_, entries, event_us, n);
+      n = coalescer.take_latest(entries, event_us);
+      if (n) write_entries(link, stats, *latency_, entries, event_us, n);
+      stats.coalesced.store(coalescer.coalesced(), std::memory_order_relaxed);
+      last_write = Clock::now();
+    }
+    const auto now = Clock::now();
+    if (now - last_write >= std::chrono::milliseconds(kHeartbeatMs)) {
+      const uint8_t hb = sc::kMsgHeartbeat;
+      if (write_payload(link, stats, &hb, 1)) stats.heartbeats.fetch_add(1, std::memory_order_relaxed);
+      last_write = now;
+    }
+    if (now - last_status >= std::chrono::milliseconds(kStatusEveryMs)) {
+      const uint8_t req = sc::kMsgStatusReq;
+      write_payload(link, stats, &req, 1);
+      last_status = now;
+    }
+    const uint64_t total = stats.entries_sent.load(std::memory_order_relaxed);
+    budget.spend(total - sent_entries);
+    sent_entries = total;
+  }
+  // Every motor got its silent entry from the engine's panic; stop-all also empties the board's
+  // queue and turns the drivers off.
+  if (b.detach_gen.load() == b.attach_gen.load()) {
+    const uint8_t stop_all = sc::kMsgStopAll;
+    write_payload(*b.link.load(), stats, &stop_all, 1);
+  }
+}
+
+// One board's reader thread: replies -> BoardStats. Not on the real-time path.
+void LiveSession::reader_loop(BoardThreads &b) {
+  sc::FrameDecoder decoder;
+  uint8_t buf[256];
+  BoardStats &stats = *b.stats;
+  while (!b.stop_reader.load(std::memory_order_acquire)) {
+    const uint32_t detached = b.detach_gen.load(std::memory_order_acquire);
+    if (detached != b.attach_gen.load(std::memory_order_acquire)) {
+      b.reader_parked_gen.store(detached, std::memory_order_release);
+      decoder = sc::FrameDecoder();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      continue;
+    }
+    long n = -1;
+    try {
+      n = b.link.load(std::memory_order_acquire)->read(buf, sizeof buf, 50);
+    } catch (...) {
+    }
+    if (n < 0) {
+      stats.read_failed.store(true, std::memory_order_relaxed);
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
+    for (long i = 0; i < n; ++i) {
+      if (decoder.push(buf[i]) != sc::kFrameOk) continue;
+      const uint8_t *p = decoder.payload();
+      const uint8_t len = decoder.payload_len();
+      if (p[0] == sc::kMsgError && len >= 4) {
+        stats.board_errors.fetch_add(1, std::memory_order_relaxed);
+        stats.last_error.store(p[1], std::memory_order_relaxed);
+      } else if (p[0] == sc::kMsgStatus) {
+        try {
+          const Status s = parse_status(p, len);
+          stats.status_frames_bad.store(s.head.frames_bad, std::memory_order_relaxed);
+          stats.status_overruns.store(s.head.uart_overruns, std::memory_order_relaxed);
+          stats.watchdog_tripped.store(s.head.flags & sc::kStatusWatchdogTripped, std::memory_order_relaxed);
+          uint8_t sounding = 0;
+          for (size_t m = 0; m < s.motors.size() && m < 8; ++m)
+            if (s.motors[m].flags & sc::kMotorSounding) sounding = static_cast<uint8_t>(sounding | (1u << m));
+          stats.sounding_mask.store(sounding, std::memory_order_relaxed);
+          stats.last_status_us.store(monotonic_us(), std::memory_order_relaxed);
+        } catch (const std::exception &) {
+        }
+      }
+    }
+  }
+}
+
+}  // namespace stepchoir

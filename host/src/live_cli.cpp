@@ -1,0 +1,298 @@
+// live_cli.cpp: `stepchoir live`: opens the boards (or starts the virtual board), the MIDI
+// input and a LiveSession; shows one status line; silences everything on the way out.
+#include "live_cli.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <spdlog/async.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <climits>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "board.h"
+#include "config.h"
+#include "live.h"
+#include "midi_in.h"
+
+extern char **environ;
+
+namespace stepchoir {
+namespace {
+
+// Called from: the status line. "C4", "F#5" for a MIDI note.
+std::string note_name(int note) {
+  static const char *const kNames[12] = {"C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B"};
+  return std::string(kNames[note % 12]) + std::to_string(note / 12 - 1);
+}
+
+// The virtual board as a child process, for `live` without --port. Stopped (SIGTERM) when
+// destroyed.
+class VirtualBoard {
+ public:
+  // Called from: run_live. Starts <dir of this program>/stepchoir-vboard on link_path (with
+  // a trace when trace_path is not empty) and waits until the link exists; throws
+  // std::runtime_error when it cannot.
+  VirtualBoard(const std::string &board, const std::string &link_path, const std::string &trace_path) {
+    char self[PATH_MAX];
+    const ssize_t n = ::readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0) throw std::runtime_error("cannot find this program's directory");
+    self[n] = 0;
+    std::string dir(self);
+    path_ = dir.substr(0, dir.rfind('/')) + "/stepchoir-vboard";
+    std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet"};
+    if (!trace_path.empty()) args.insert(args.end(), {"--trace", trace_path});
+    std::vector<char *> argv;
+    for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    // Its own process group: Ctrl-C reaches this program only, which silences the motors
+    // first and then stops the board.
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attr, 0);
+    const int rc = posix_spawn(&pid_, path_.c_str(), &fa, &attr, argv.data(), environ);
+    posix_spawnattr_destroy(&attr);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) throw std::runtime_error("cannot start the virtual board " + path_);
+    struct stat st;
+    for (int i = 0; i < 200 && ::lstat(link_path.c_str(), &st) != 0; ++i) {
+      int status;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        throw std::runtime_error("the virtual board " + path_ + " exited at start");
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+  }
+  ~VirtualBoard() {
+    if (pid_ <= 0) return;
+    ::kill(pid_, SIGTERM);
+    int status;
+    waitpid(pid_, &status, 0);
+  }
+  VirtualBoard(const VirtualBoard &) = delete;
+  VirtualBoard &operator=(const VirtualBoard &) = delete;
+  const std::string &path() const { return path_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string path_;
+};
+
+// Called from: run_live, every 100 ms. The one status line: motors, link, latency.
+std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<Board>> &boards) {
+  std::string line;
+  for (size_t m = 0; m < s.motor_count(); ++m) {
+    const int note = s.motor_note(m);
+    line += "m" + std::to_string(m) + " " + (note < 0 ? std::string("--") : note_name(note)) + "  ";
+  }
+  const uint64_t now = monotonic_us();
+  for (size_t b = 0; b < s.board_count(); ++b) {
+    const BoardStats &st = s.board_stats(b);
+    const uint64_t seen = st.last_status_us.load();
+    const char *health = st.write_failed ? "WRITE FAILED"
+                         : st.read_failed ? "READ FAILED"
+                         : (seen && now - seen < 2500000) ? (st.watchdog_tripped ? "watchdog" : "ok")
+                                                          : "no answer";
+    line += "| " + (boards[b] ? boards[b]->link().name() : std::string("?")) + " " + health + ", " + std::to_string(st.frames_sent.load()) +
+            " frames, " + std::to_string(st.status_frames_bad.load()) + " bad ";
+  }
+  char lat[96];
+  std::snprintf(lat, sizeof lat, "| %llu events, latency p50 %llu us p99 %llu us",
+                static_cast<unsigned long long>(s.events()), static_cast<unsigned long long>(s.latency().percentile(0.5)),
+                static_cast<unsigned long long>(s.latency().percentile(0.99)));
+  return line + lat;
+}
+
+// Called from: run_live's loop when board b's link failed. Parks the board's threads, then
+// reopens `path` every 500 ms until a board with as many motors answers hello (or *stop);
+// the session then restores what should be sounding. Says so on stdout.
+void reconnect(LiveSession &session, size_t b, const std::string &path, size_t motors,
+               std::vector<std::unique_ptr<Board>> &boards, const std::atomic<bool> &stop, spdlog::logger &log) {
+  std::printf("\nlive: %s: link lost; reconnecting\n", path.c_str());
+  std::fflush(stdout);
+  // The old link may be closed only once the board's threads no longer touch it (a serial
+  // write can block for a second).
+  while (!session.detach_link(b)) {
+    log.warn("{}: the board's threads are still using the lost link; waiting", path);
+    if (stop.load()) return;
+  }
+  boards[b].reset();
+  while (!stop.load()) {
+    try {
+      auto board = std::make_unique<Board>(open_link(path));
+      const Caps caps = board->hello(600);
+      if (caps.motor_count != motors)
+        throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
+      session.attach_link(b, &board->link());
+      boards[b] = std::move(board);
+      std::printf("live: %s: reconnected\n", path.c_str());
+      std::fflush(stdout);
+      return;
+    } catch (const std::exception &e) {
+      log.debug("{}: {}", path, e.what());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+}
+
+// Called from: run_live's loop, once a second. When the MIDI input went away: closes it,
+// releases every note (reset-all-controllers and all-sound-off on every channel: no note-off
+// or pedal release will come for what was down) and says so; while it is away, reopens it as soon as the selector finds a port.
+void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::string &selector, LiveSession &session,
+                      bool tty) {
+  if (midi && midi->still_there()) return;
+  if (midi) {
+    const std::string name = midi->port_name();
+    midi.reset();  // its callback has ended: this thread is now the queue's only producer
+    for (uint8_t ch = 0; ch < 16; ++ch)
+      for (uint8_t cc : {kCcResetAllControllers, kCcAllSoundOff})  // pedals up, bends centred, silence
+        while (!session.midi_queue().try_enqueue(control_change(ch, cc, 0, monotonic_us())))
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::printf("%slive: MIDI input %s is gone; every note released, waiting for it\n", tty ? "\n" : "",
+                name.c_str());
+    std::fflush(stdout);
+    return;
+  }
+  try {
+    midi = std::make_unique<MidiIn>(api, selector, session.midi_queue());
+    std::printf("%slive: MIDI input %s is back\n", tty ? "\n" : "", midi->port_name().c_str());
+    std::fflush(stdout);
+  } catch (const std::exception &) {
+  }
+}
+
+// Called from: run_live after hello. Sends the configuration of every motor the file lists
+// (up to the board's motor count) and fails when the board refuses one.
+void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
+  for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
+    board.send(config_payload(settings.motors[m].hardware));
+    if (const auto err = board.wait_reply(sc::kMsgError, 100))
+      throw std::runtime_error(port + ": the board refused motor " + std::to_string(m) +
+                               "'s configuration: " + sc::error_name((*err)[1]));
+  }
+}
+
+}  // namespace
+
+void print_midi_inputs(const std::string &midi_api) {
+  try {
+    const auto inputs = list_midi_inputs(parse_midi_api(midi_api));
+    std::printf("MIDI inputs (%s):%s\n", midi_api.c_str(), inputs.empty() ? " none" : "");
+    for (size_t i = 0; i < inputs.size(); ++i) std::printf("  %zu: %s\n", i, inputs[i].c_str());
+  } catch (const std::exception &e) {
+    std::printf("MIDI inputs (%s): unavailable: %s\n", midi_api.c_str(), e.what());
+  }
+}
+
+int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
+  spdlog::init_thread_pool(1024, 1);
+  auto log = spdlog::create_async<spdlog::sinks::stderr_color_sink_mt>("live");
+  log->set_pattern("stepchoir live: %^%l%$: %v");
+  // The file's settings, then the command line's over them.
+  const LiveConfig cfg = o.config.empty() ? LiveConfig{} : load_config(o.config);
+  const std::string midi_selector = o.midi.empty() ? cfg.midi_input : o.midi;
+  const std::string api_name = o.midi_api.empty() ? cfg.midi_api : o.midi_api;
+  const MidiApi api = parse_midi_api(api_name);
+  const Policy policy = o.policy.empty() ? cfg.policy : parse_policy(o.policy);
+  std::vector<std::string> ports = o.ports;
+  if (ports.empty())
+    for (const BoardSettings &b : cfg.boards)
+      if (!b.port.empty()) ports.push_back(b.port);
+
+  std::unique_ptr<VirtualBoard> vboard;
+  if (ports.empty()) {
+    const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
+    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace);
+    std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n",
+                o.vboard_board.c_str(), link.c_str());
+    ports.push_back(link);
+  }
+  std::vector<std::unique_ptr<Board>> boards;
+  std::vector<LiveBoard> pool;
+  for (size_t b = 0; b < ports.size(); ++b) {
+    boards.push_back(std::make_unique<Board>(open_link(ports[b])));
+    const Caps caps = boards.back()->hello();
+    if (b < cfg.boards.size()) configure_motors(*boards.back(), caps, cfg.boards[b], ports[b]);
+    pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
+  }
+  AllocatorConfig alloc = pool_config(pool, policy);
+  alloc.priority = cfg.priority;
+  alloc.a4_hz = cfg.a4_hz;
+  for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b)
+    for (size_t m = 0; b < cfg.boards.size() && m < cfg.boards[b].motors.size() && m < pool[b].motor_count; ++m) {
+      const uint32_t f_cpu_hz = alloc.motors[first + m].f_cpu_hz;
+      alloc.motors[first + m] = cfg.boards[b].motors[m].music;
+      alloc.motors[first + m].f_cpu_hz = f_cpu_hz;
+      alloc.mono_channel[first + m] = cfg.boards[b].motors[m].mono_channel;
+    }
+  LiveSession session(pool, alloc);
+  auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
+  session.start();
+  const char *policy_names[] = {"poly", "channel", "mono"};
+  std::printf("live: MIDI %s (%s) -> %zu motors, policy %s; Ctrl-C to stop\n", midi->port_name().c_str(),
+              api_name.c_str(), session.motor_count(), policy_names[static_cast<int>(policy)]);
+  std::fflush(stdout);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  if (session.realtime_threads() == 0)
+    log->info("no real-time scheduling for the engine and writer threads (needs CAP_SYS_NICE or an rtprio limit)");
+
+  uint64_t errors_logged = 0, dropped_logged = 0;
+  const bool tty = ::isatty(1);
+  auto last_print = std::chrono::steady_clock::now();
+  for (unsigned tick = 1; !stop.load(); ++tick) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (tick % 10 == 0) watch_midi_input(midi, api, midi_selector, session, tty);
+    uint64_t errors = 0;
+    for (size_t b = 0; b < session.board_count(); ++b) {
+      errors += session.board_stats(b).board_errors.load();
+      const BoardStats &st = session.board_stats(b);
+      if (st.write_failed.load() || st.read_failed.load()) reconnect(session, b, ports[b], pool[b].motor_count, boards, stop, *log);
+    }
+    if (errors != errors_logged) {
+      log->warn("the boards reported {} errors (latest: {})", errors,
+                sc::error_name(session.board_stats(0).last_error.load()));
+      errors_logged = errors;
+    }
+    if (midi && midi->dropped() != dropped_logged) {
+      dropped_logged = midi->dropped();
+      log->warn("{} MIDI events dropped: the engine fell behind", dropped_logged);
+    }
+    if (o.quiet) continue;
+    const auto now = std::chrono::steady_clock::now();
+    if (tty) {
+      std::printf("\r%s\033[K", status_line(session, boards).c_str());
+      std::fflush(stdout);
+    } else if (now - last_print >= std::chrono::seconds(1)) {
+      std::printf("%s\n", status_line(session, boards).c_str());
+      std::fflush(stdout);
+      last_print = now;
+    }
+  }
+  midi.reset();  // no more callbacks
+  session.stop();
+  if (tty && !o.quiet) std::printf("\n");
+  std::printf("live: every motor silenced (%llu events, latency p50 %llu us, p99 %llu us, max %llu us)\n",
+              static_cast<unsigned long long>(session.events()),
+              static_cast<unsigned long long>(session.latency().percentile(0.5)),
+              static_cast<unsigned long long>(session.latency().percentile(0.99)),
+              static_cast<unsigned long long>(session.latency().max_us()));
+  std::fflush(stdout);
+  spdlog::shutdown();
+  return 0;
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,34 @@
+// live_cli.h: the `stepchoir live` command: MIDI in, motors out, a status line, clean exit.
+#ifndef STEPCHOIR_HOST_LIVE_CLI_H
+#define STEPCHOIR_HOST_LIVE_CLI_H
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+namespace stepchoir {
+
+// Empty strings: not given on the command line (the config file's value, else its default).
+struct LiveOptions {
+  std::string config;                    // TOML file ("" = none)
+  std::string midi;                      // MidiIn selector: index, name substring, virtual[:NAME]
+  std::string midi_api;                  // alsa | jack
+  std::vector<std::string> ports;        // boards; none (and none in the file): the virtual board
+  std::string policy;                    // poly | channel | mono
+  std::string vboard_board = "uno";      // board the virtual board simulates
+  std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
+  bool quiet = false;                    // no status line
+};
+
+// Runs until *stop is set (Ctrl-C, SIGTERM) or a board's link fails; silences every motor
+// before it returns. Returns the process exit status; prints errors on stderr.
+// Called from: main().
+int run_live(const LiveOptions &options, const std::atomic<bool> &stop);
+
+// `stepchoir ports`' MIDI part: the inputs of one API, one "index: name" a line, or why none.
+// Called from: main().
+void print_midi_inputs(const std::string &midi_api);
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_LIVE_CLI_H

@@ -1,0 +1,144 @@
+// midi_in.cpp: RtMidi input ports -> MidiQueue.
+#include "midi_in.h"
+
+#include <RtMidi.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <stdexcept>
+
+#include "rt_guard.h"
+
+namespace stepchoir {
+namespace {
+
+// Called from: MidiIn and list_midi_inputs. RtMidi's enum for ours.
+RtMidi::Api rtmidi_api(MidiApi api) { return api == MidiApi::kJack ? RtMidi::UNIX_JACK : RtMidi::LINUX_ALSA; }
+
+// Called from: error messages. The API's name as the command line spells it.
+const char *api_name(MidiApi api) { return api == MidiApi::kJack ? "jack" : "alsa"; }
+
+// Called from: RtMidi's thread for every message. Hands it to MidiIn::on_message.
+void rtmidi_callback(double, std::vector<unsigned char> *message, void *user) {
+  static_cast<MidiIn *>(user)->on_message(message->data(), message->size());
+}
+
+// Called from: RtMidi on a port error after opening. Nothing to do on that thread: the
+// engine sees the silence, and the status line shows the input count no longer moving.
+void rtmidi_error(RtMidiError::Type, const std::string &, void *) {}
+
+// Called from: selector matching. Lower-case copy.
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+}  // namespace
+
+MidiApi parse_midi_api(const std::string &name) {
+  if (name == "alsa") return MidiApi::kAlsa;
+  if (name == "jack") return MidiApi::kJack;
+  throw std::invalid_argument("MIDI API '" + name + "': expected alsa or jack");
+}
+
+uint64_t monotonic_us() noexcept {
+  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
+                                   std::chrono::steady_clock::now().time_since_epoch())
+                                   .count());
+}
+
+std::vector<std::string> list_midi_inputs(MidiApi api) {
+  try {
+    RtMidiIn in(rtmidi_api(api), "stepchoir ports");
+    std::vector<std::string> out;
+    for (unsigned i = 0, n = in.getPortCount(); i < n; ++i) out.push_back(in.getPortName(i));
+    return out;
+  } catch (const RtMidiError &e) {
+    throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.getMessage());
+  }
+}
+
+MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : queue_(queue) {
+  try {
+    in_ = std::make_unique<RtMidiIn>(rtmidi_api(api), "stepchoir");
+    in_->setErrorCallback(rtmidi_error, this);
+    in_->ignoreTypes(true, true, true);  // sysex, clock, active sensing: never reach the queue
+    in_->setCallback(rtmidi_callback, this);
+    if (selector == "virtual" || selector.rfind("virtual:", 0) == 0) {
+      port_name_ = selector.size() > 8 ? selector.substr(8) : "stepchoir in";
+      in_->openVirtualPort(port_name_);
+      port_name_ = std::string("virtual port '") + port_name_ + "'";
+      is_virtual_ = true;
+      return;
+    }
+    const unsigned count = in_->getPortCount();
+    std::vector<std::string> names;
+    for (unsigned i = 0; i < count; ++i) names.push_back(in_->getPortName(i));
+    int index = -1;
+    if (!selector.empty() && std::all_of(selector.begin(), selector.end(), ::isdigit)) {
+      const unsigned long i = std::stoul(selector);
+      if (i < count) index = static_cast<int>(i);
+    } else {
+      for (unsigned i = 0; i < count && index < 0; ++i)
+        if (lower(names[i]).find(lower(selector)) != std::string::npos) index = static_cast<int>(i);
+    }
+    if (index < 0) {
+      std::string list;
+      for (unsigned i = 0; i < count; ++i) list += "\n  " + std::to_string(i) + ": " + names[i];
+      throw std::runtime_error("--midi '" + selector + "': no such " + api_name(api) + " MIDI input" +
+                               (count ? "; there are:" + list : std::string("; there are none")) +
+                               "\n  (or use --midi virtual)");
+    }
+    in_->openPort(static_cast<unsigned>(index), "stepchoir in");
+    port_name_ = names[index];
+  } catch (const RtMidiError &e) {
+    throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.getMessage());
+  }
+}
+
+MidiIn::MidiIn(MidiQueue &queue) : queue_(queue) {}
+
+std::unique_ptr<MidiIn> MidiIn::without_port(MidiQueue &queue) {
+  return std::unique_ptr<MidiIn>(new MidiIn(queue));
+}
+
+bool MidiIn::still_there() {
+  if (is_virtual_ || !in_) return true;
+  try {
+    for (unsigned i = 0, n = in_->getPortCount(); i < n; ++i)
+      if (in_->getPortName(i) == port_name_) return true;
+  } catch (const RtMidiError &) {
+  }
+  return false;
+}
+
+MidiIn::~MidiIn() {
+  if (in_) {
+    in_->cancelCallback();
+    in_->closePort();
+  }
+}
+
+bool parse_midi_message(const unsigned char *bytes, size_t len, uint64_t t_us, MidiEvent *out) noexcept {
+  if (len < 1 || bytes[0] < 0x80 || bytes[0] >= 0xF0) return false;
+  // Program change (0xC0) and channel pressure (0xD0) carry one data byte, the others two.
+  const uint8_t type = bytes[0] & 0xF0;
+  const size_t need = (type == 0xC0 || type == 0xD0) ? 2 : 3;
+  if (len < need) return false;
+  *out = MidiEvent{bytes[0], static_cast<uint8_t>(bytes[1] & 0x7F),
+                   static_cast<uint8_t>(need > 2 ? bytes[2] & 0x7F : 0), t_us};
+  return true;
+}
+
+void MidiIn::on_message(const unsigned char *bytes, size_t len) noexcept {
+  RtScope rt;
+  MidiEvent ev;
+  if (!parse_midi_message(bytes, len, monotonic_us(), &ev)) return;
+  if (queue_.try_enqueue(ev))
+    received_.fetch_add(1, std::memory_order_relaxed);
+  else
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace stepchoir

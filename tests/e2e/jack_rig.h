@@ -1,0 +1,62 @@
+// jack_rig.h: a private JACK server (dummy driver) and a test MIDI keyboard on it, for the
+// live end-to-end test and the live latency benchmark.
+#ifndef STEPCHOIR_TESTS_JACK_RIG_H
+#define STEPCHOIR_TESTS_JACK_RIG_H
+
+#include <RtMidi.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "child_process.h"
+#include "midi_event.h"
+
+// A private JACK server with the dummy driver, no realtime; JACK clients of this process and
+// its children find it through JACK_DEFAULT_SERVER.
+class JackServer {
+ public:
+  // period_frames: the dummy driver's period at 48 kHz (1024: 21 ms; MIDI moves once a period).
+  // realtime: SCHED_FIFO for the server and its clients' process threads (the benchmark; the
+  // tests run without, as a user without realtime privileges would).
+  explicit JackServer(int period_frames, bool realtime = false)
+      : name_("stepchoir-e2e-" + std::to_string(getpid())) {
+    setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
+    setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
+    jackd_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, realtime ? "-R" : "-r", "-d", "dummy", "-p",
+                                 std::to_string(period_frames)},
+        false);
+    ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
+    if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");
+  }
+  ~JackServer() { jackd_->signal_and_wait(SIGTERM); }
+
+ private:
+  std::string name_;
+  std::unique_ptr<ChildProcess> jackd_;
+};
+
+// The test's MIDI keyboard: a virtual JACK MIDI output that `stepchoir live` connects to.
+class Sender {
+ public:
+  static constexpr const char *kPort = "e2e-keys";
+  Sender() : out_(RtMidi::UNIX_JACK, "stepchoir e2e sender") { out_.openVirtualPort(kPort); }
+  // Sends one channel message; returns when it was sent (s on the steady clock).
+  double send(const stepchoir::MidiEvent &e) {
+    const unsigned char m[3] = {e.status, e.data1, e.data2};
+    out_.sendMessage(m, 3);
+    return now_s();
+  }
+  static double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  }
+
+ private:
+  RtMidiOut out_;
+};
+
+#endif  // STEPCHOIR_TESTS_JACK_RIG_H

@@ -1,0 +1,141 @@
+// test_config.cpp: the live configuration file: the printed default loads to the defaults,
+// every key is read, and mistakes are reported with their line.
+#include <catch2/catch.hpp>
+
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include "config.h"
+
+using namespace stepchoir;
+
+namespace {
+
+// The message of the error parse_config throws for text ("" when it does not throw).
+std::string error_of(const std::string &text) {
+  try {
+    parse_config(text, "f.toml");
+  } catch (const std::runtime_error &e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("config: the printed default loads to the defaults", "[config]") {
+  const LiveConfig c = parse_config(default_config_text(), "default");
+  const LiveConfig d;
+  CHECK(c.midi_input == d.midi_input);
+  CHECK(c.midi_api == d.midi_api);
+  CHECK(c.policy == d.policy);
+  CHECK(c.priority == d.priority);
+  CHECK(c.a4_hz == d.a4_hz);
+  CHECK(c.boards.empty());
+}
+
+TEST_CASE("config: the commented board example, uncommented, gives the default motor", "[config]") {
+  std::string text = default_config_text();
+  const size_t from = text.find("# [[boards]]");
+  REQUIRE(from != std::string::npos);
+  std::string example;  // the lines that are TOML once "# " is taken off: [[tables]] and key = value
+  const std::regex toml_line(R"(^# (\[\[[a-z.]+\]\]|[a-z_]+ = .*)$)");
+  std::istringstream lines(text.substr(from));
+  for (std::string line; std::getline(lines, line);)
+    if (std::regex_match(line, toml_line)) example += line.substr(2) + "\n";
+  const LiveConfig c = parse_config(example, "example");
+  REQUIRE(c.boards.size() == 1);
+  CHECK(c.boards[0].port == "/dev/ttyACM0");
+  REQUIRE(c.boards[0].motors.size() == 1);
+  const MotorSettings &m = c.boards[0].motors[0];
+  const sc::ConfigBody d = default_motor_hardware(0);
+  CHECK(m.hardware.driver == d.driver);
+  CHECK(m.hardware.microsteps == d.microsteps);
+  CHECK(m.hardware.travel_steps == d.travel_steps);
+  CHECK(m.hardware.pulse_us == d.pulse_us);
+  CHECK(m.music.lowest_note == MotorConfig{}.lowest_note);
+  CHECK(m.music.highest_note == MotorConfig{}.highest_note);
+  CHECK(m.music.muted.none());
+  CHECK(m.mono_channel == 0);
+}
+
+TEST_CASE("config: every key is read", "[config]") {
+  const LiveConfig c = parse_config(R"(
+a4_hz = 442
+[midi]
+input = "Keystation"
+api = "jack"
+[allocation]
+policy = "channel"
+priority = "highest"
+[[boards]]
+port = "/dev/ttyACM1"
+[[boards.motors]]
+driver = "tb6600"
+microsteps = 8
+endstop_active_high = true
+travel_steps = 0
+pulse_us = 5
+lowest_note = 36
+highest_note = 84
+transpose = -12
+tuning_cents = 3.5
+muted = [40, 52]
+mono_channel = 3
+[[boards.motors]]
+driver = "drv8825"
+[[boards]]
+port = "/dev/ttyACM2"
+)",
+                                     "full");
+  CHECK(c.a4_hz == 442);
+  CHECK(c.midi_input == "Keystation");
+  CHECK(c.midi_api == "jack");
+  CHECK(c.policy == Policy::kChannel);
+  CHECK(c.priority == Priority::kHighest);
+  REQUIRE(c.boards.size() == 2);
+  CHECK(c.boards[1].port == "/dev/ttyACM2");
+  REQUIRE(c.boards[0].motors.size() == 2);
+  const MotorSettings &m = c.boards[0].motors[0];
+  CHECK(m.hardware.motor == 0);
+  CHECK(m.hardware.driver == sc::kDriverTb6600);
+  CHECK(m.hardware.microsteps == 8);
+  CHECK(m.hardware.endstop_active_high == 1);
+  CHECK(m.hardware.travel_steps == 0);
+  CHECK(m.hardware.pulse_us == 5);
+  CHECK(m.music.lowest_note == 36);
+  CHECK(m.music.highest_note == 84);
+  CHECK(m.music.transpose == -12);
+  CHECK(m.music.tuning_cents == 3.5);
+  CHECK(m.music.muted.count() == 2);
+  CHECK(m.music.muted.test(52));
+  CHECK(m.mono_channel == 2);
+  CHECK(c.boards[0].motors[1].mono_channel == 0);
+  CHECK(c.boards[0].motors[1].hardware.motor == 1);
+  CHECK(c.boards[0].motors[1].hardware.driver == sc::kDriverDrv8825);
+}
+
+TEST_CASE("config: mistakes name the file, line and what is wrong", "[config]") {
+  CHECK(error_of("a4_hz = 442\n[midi\n").rfind("f.toml:2:", 0) == 0);
+  CHECK(error_of("a4_hz = 442\npolicy = \"poly\"\n") .find("f.toml:2:") == 0);
+  CHECK(error_of("a4_hz = 442\npolicy = \"poly\"\n").find("unknown key 'policy' in the top level") != std::string::npos);
+  CHECK(error_of("[allocation]\npolicy = \"round-robin\"\n").find("f.toml:2:") == 0);
+  CHECK(error_of("[allocation]\npolicy = \"round-robin\"\n").find("expected poly, channel or mono") != std::string::npos);
+  CHECK(error_of("a4_hz = \"440\"\n").find("a4_hz: expected a number") != std::string::npos);
+  CHECK(error_of("a4_hz = 5000\n").find("a4_hz: must be") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\nmicrosteps = 12\n").find("f.toml:3:") == 0);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\npulse_us = 1\n").find("pulse_us = 1: must be 2 to 10") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\nmuted = [40, 200]\n").find("muted: MIDI notes are 0 to 127") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\nlowest_note = 90\nhighest_note = 80\n").find("lowest_note must not be above") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\ndriver = \"l298\"\n").find("f.toml:3:") == 0);
+  CHECK(error_of("[midi]\napi = \"coreaudio\"\n").find("api: expected alsa or jack") != std::string::npos);
+  CHECK(error_of("[[boards]]\n[[boards.motors]]\nmono_channel = 0\n").find("mono_channel = 0: must be 1 to 16") !=
+        std::string::npos);
+  CHECK(error_of("boards = 3\n").find("boards: expected [[boards]] tables") != std::string::npos);
+  CHECK(error_of("") == "");
+}
+
+TEST_CASE("config: a missing file is reported by path", "[config]") {
+  CHECK_THROWS_WITH(load_config("/nonexistent/stepchoir.toml"), "/nonexistent/stepchoir.toml: cannot open");
+}

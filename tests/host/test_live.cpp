@@ -1,0 +1,442 @@
+// test_live.cpp: the live path without a MIDI system or a board: message parsing, the
+// Coalescer, the latency histogram, and a LiveSession writing to a fake link.
+#include <catch2/catch.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "live.h"
+#include "midi_in.h"
+#include "rt_guard.h"
+#include "pitch.h"
+
+using namespace stepchoir;
+
+namespace {
+
+// A Link that keeps every byte written; reads time out with nothing. While closed, writes
+// wait: a link slower than anything the test sends.
+class FakeLink : public Link {
+ public:
+  bool write(const uint8_t *data, size_t len) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    opened_.wait(lock, [this] { return open_; });
+    bytes_.insert(bytes_.end(), data, data + len);
+    return true;
+  }
+  // Called from: the test. Holds writes back (close) or lets them through (open).
+  void set_open(bool open) {
+    std::lock_guard<std::mutex> lock(mu_);
+    open_ = open;
+    opened_.notify_all();
+  }
+  long read(uint8_t *, size_t, int timeout_ms) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(timeout_ms, 5)));
+    return 0;
+  }
+  std::string name() const override { return "fake"; }
+  // Every frame written so far, decoded (payloads).
+  std::vector<std::vector<uint8_t>> frames() {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::vector<std::vector<uint8_t>> out;
+    sc::FrameDecoder dec;
+    for (uint8_t b : bytes_)
+      if (dec.push(b) == sc::kFrameOk) out.emplace_back(dec.payload(), dec.payload() + dec.payload_len());
+    return out;
+  }
+
+ private:
+  bool open_ = true;
+  std::condition_variable opened_;
+  std::mutex mu_;
+  std::vector<uint8_t> bytes_;
+};
+
+// The set-period entries among payloads, in wire order.
+std::vector<sc::PeriodEntry> entries_of(const std::vector<std::vector<uint8_t>> &frames) {
+  std::vector<sc::PeriodEntry> out;
+  for (const auto &f : frames) {
+    if (!(f[0] & sc::kSetPeriodFlag)) continue;
+    for (size_t i = 0; i + sc::kSetPeriodBytes <= f.size(); i += sc::kSetPeriodBytes) {
+      sc::PeriodEntry e;
+      REQUIRE(sc::get_entry(&f[i], &e));
+      out.push_back(e);
+    }
+  }
+  return out;
+}
+
+// Periods motor m got, in order.
+std::vector<uint32_t> periods_of(const std::vector<sc::PeriodEntry> &entries, uint8_t m) {
+  std::vector<uint32_t> out;
+  for (const auto &e : entries)
+    if (e.motor == m) out.push_back(e.period_q8);
+  return out;
+}
+
+// Waits up to 10 s for cond; true when it held.
+template <class F>
+bool eventually(F cond) {
+  for (int i = 0; i < 1000; ++i) {
+    if (cond()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return cond();
+}
+
+const uint32_t kF = 16000000;
+const int kNoRefresh = 3600 * 1000;  // ms: no state refresh while a test checks exact frames
+
+}  // namespace
+
+TEST_CASE("live: raw MIDI messages become events, others are refused", "[live]") {
+  MidiEvent e{};
+  const unsigned char on[] = {0x93, 60, 100};
+  REQUIRE(parse_midi_message(on, 3, 42, &e));
+  CHECK(e.status == 0x93);
+  CHECK(e.data1 == 60);
+  CHECK(e.data2 == 100);
+  CHECK(e.timestamp_us == 42);
+  const unsigned char pc[] = {0xC0, 5};
+  REQUIRE(parse_midi_message(pc, 2, 0, &e));
+  CHECK(e.data2 == 0);
+  const unsigned char bend[] = {0xE1, 0x7F, 0x40};
+  REQUIRE(parse_midi_message(bend, 3, 0, &e));
+  CHECK(e.data1 == 0x7F);
+  const unsigned char short_on[] = {0x90, 60};
+  CHECK_FALSE(parse_midi_message(short_on, 2, 0, &e));
+  const unsigned char clock[] = {0xF8};
+  CHECK_FALSE(parse_midi_message(clock, 1, 0, &e));
+  const unsigned char sysex[] = {0xF0, 1, 2, 0xF7};
+  CHECK_FALSE(parse_midi_message(sysex, 4, 0, &e));
+  const unsigned char data_only[] = {0x40, 0x40};
+  CHECK_FALSE(parse_midi_message(data_only, 2, 0, &e));
+  CHECK_FALSE(parse_midi_message(on, 0, 0, &e));
+}
+
+TEST_CASE("live: the coalescer sends the latest state per motor", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  uint64_t us[Coalescer::kMaxMotors];
+  CHECK_FALSE(c.pending());
+  c.add({0, 1000000, 1});
+  c.add({0, 1100000, 2});  // a bend before the first went out
+  c.add({2, 900000, 3});
+  REQUIRE(c.pending());
+  CHECK(c.take_silences(out, us) == 0);
+  REQUIRE(c.take_latest(out, us) == 2);
+  CHECK(out[0].motor == 0);
+  CHECK(out[0].period_q8 == 1100000);
+  CHECK(us[0] == 2);
+  CHECK(out[1].motor == 2);
+  CHECK(out[1].period_q8 == 900000);
+  CHECK(c.coalesced() == 1);
+  CHECK_FALSE(c.pending());
+}
+
+TEST_CASE("live: the coalescer never drops a silence", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  uint64_t us[Coalescer::kMaxMotors];
+  c.add({1, 1000000, 1});
+  REQUIRE(c.take_latest(out, us) == 1);  // the note is on the wire
+  SECTION("note off, then the same note again: silence first, then the note") {
+    c.add({1, 0, 2});
+    c.add({1, 1000000, 3});
+    REQUIRE(c.take_silences(out, us) == 1);
+    CHECK(out[0].motor == 1);
+    CHECK(out[0].period_q8 == 0);
+    CHECK(us[0] == 2);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 1000000);
+    CHECK(us[0] == 3);
+  }
+  SECTION("off, on, off: one silence") {
+    c.add({1, 0, 2});
+    c.add({1, 1200000, 3});
+    c.add({1, 0, 4});
+    CHECK(c.take_silences(out, us) == 0);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 0);
+    CHECK(us[0] == 4);
+  }
+  SECTION("without take_silences, take_latest still sends the silence first") {
+    c.add({1, 0, 2});
+    c.add({1, 1200000, 3});
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 0);
+    REQUIRE(c.take_latest(out, us) == 1);
+    CHECK(out[0].period_q8 == 1200000);
+  }
+  SECTION("a note that never went out and its silence cancel") {
+    c.add({3, 1300000, 2});
+    c.add({3, 0, 3});
+    CHECK(c.take_silences(out, us) == 0);
+    CHECK(c.take_latest(out, us) == 0);
+    CHECK_FALSE(c.pending());
+  }
+}
+
+TEST_CASE("live: latency histogram percentiles", "[live]") {
+  LatencyHistogram h;
+  CHECK(h.percentile(0.5) == 0);
+  for (uint64_t us = 1; us <= 100; ++us) h.record(us);
+  h.record(50000);  // beyond the last bin: counted there, max keeps it
+  CHECK(h.count() == 101);
+  CHECK(h.percentile(0.5) == 51);
+  CHECK(h.percentile(0.99) == 100);
+  CHECK(h.percentile(1.0) == LatencyHistogram::kBins - 1);
+  CHECK(h.max_us() == 50000);
+}
+
+TEST_CASE("live: pool configuration spans the boards", "[live]") {
+  const AllocatorConfig c = pool_config({{nullptr, 4, 16000000}, {nullptr, 5, 20000000}}, Policy::kMono);
+  CHECK(c.motor_count == 9);
+  CHECK(c.motors[3].f_cpu_hz == 16000000);
+  CHECK(c.motors[4].f_cpu_hz == 20000000);
+  CHECK(c.mono_channel[8] == 0);
+  CHECK_THROWS_AS(pool_config({}, Policy::kPoly), std::invalid_argument);
+  CHECK_THROWS_AS(pool_config({{nullptr, 30, kF}, {nullptr, 5, kF}}, Policy::kPoly), std::invalid_argument);
+}
+
+TEST_CASE("live: notes reach the link as set-period frames, and stop silences and stops all", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100, monotonic_us())));
+  REQUIRE(eventually([&] { return entries_of(link.frames()).size() >= 2; }));
+  CHECK(eventually([&] { return s.motor_note(0) == 69 && s.motor_note(1) == 76; }));
+  REQUIRE(s.midi_queue().try_enqueue(note_off(0, 69, 0, monotonic_us())));
+  REQUIRE(eventually([&] { return entries_of(link.frames()).size() >= 3; }));
+  CHECK(eventually([&] { return s.motor_note(0) == -1; }));
+  s.stop();
+  const auto frames = link.frames();
+  REQUIRE(frames.size() >= 2);
+  CHECK(frames.front()[0] == sc::kMsgWatchdog);
+  CHECK(sc::get_u16(&frames.front()[1]) == sc::kWatchdogDefaultMs);
+  CHECK(frames.back()[0] == sc::kMsgStopAll);
+  const auto entries = entries_of(frames);
+  // Motor 1 is silenced by stop(); motors already silent get no entry (stop-all covers them).
+  CHECK(periods_of(entries, 0) == std::vector<uint32_t>{a4, 0});
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{e5, 0});
+  CHECK(periods_of(entries, 3).empty());
+  CHECK(s.events() == 3);
+  CHECK(s.latency().count() == 4);
+  CHECK(s.board_stats(0).frames_sent.load() == frames.size());
+}
+
+TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), kNoRefresh);
+  s.start();
+  const uint32_t c4 = hz_to_period_q8(note_hz(60), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel 0 -> motor 0
+  REQUIRE(eventually([&] { return periods_of(entries_of(link.frames()), 0) == std::vector<uint32_t>{c4}; }));
+  link.set_open(false);  // from here the writer blocks in its next write until every event is in
+  const int kRepeats = 200;
+  for (int i = 1; i <= kRepeats; ++i) {  // the note released and struck again 200 times, bending
+    REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
+    REQUIRE(s.midi_queue().try_enqueue(pitch_bend(0, static_cast<uint16_t>(8192 + 40 * i))));
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
+  }
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));  // channel 1 -> motor 1
+  REQUIRE(eventually([&] { return s.events() == 3 * kRepeats + 2; }));
+  link.set_open(true);
+  const uint32_t last_bend = hz_to_period_q8(note_hz(60 + 2.0 * (40 * kRepeats) / 8192), kF);
+  REQUIRE(eventually([&] {
+    const auto e = entries_of(link.frames());
+    return !periods_of(e, 1).empty() && periods_of(e, 0).back() == last_bend;
+  }));
+  const auto before_stop = periods_of(entries_of(link.frames()), 0);
+  s.stop();
+  const auto entries = entries_of(link.frames());
+  // A handful of frames for 600 events: the states were coalesced.
+  CHECK(link.frames().size() < 12);
+  CHECK(s.board_stats(0).coalesced.load() > 0);
+  // The note was struck again: a silence went out between the first note and the last.
+  REQUIRE(before_stop.size() >= 3);
+  CHECK(before_stop.front() == c4);
+  CHECK(std::find(before_stop.begin(), before_stop.end(), 0u) != before_stop.end());
+  // Never two notes in a row without the silence between them, and silent at the end.
+  const auto m0 = periods_of(entries, 0);
+  for (size_t i = 1; i < m0.size(); ++i) CHECK((m0[i] == 0 || m0[i - 1] == 0));
+  CHECK(m0.back() == 0);
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF), 0});
+}
+
+TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 1, kF}}, pool_config({{&link, 1, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  // Liveness only: at least two heartbeats come, however slow the machine.
+  REQUIRE(eventually([&] { return s.board_stats(0).heartbeats.load() >= 2; }));
+  s.stop();
+  size_t heartbeats = 0;
+  for (const auto &f : link.frames()) heartbeats += f.size() == 1 && f[0] == sc::kMsgHeartbeat;
+  CHECK(heartbeats >= 2);
+}
+
+TEST_CASE("live: after a board restart the coalescer restores what should sound", "[live]") {
+  Coalescer c;
+  sc::PeriodEntry out[Coalescer::kMaxMotors];
+  c.add({0, 1000000, 1});
+  c.add({1, 1100000, 1});
+  REQUIRE(c.take_latest(out, nullptr) == 2);
+  c.add({1, 0, 2});
+  REQUIRE(c.take_latest(out, nullptr) == 1);  // motor 1 silent on the old board
+  c.add({2, 1200000, 3});                      // not sent yet when the board went away
+  c.board_restarted();
+  REQUIRE(c.take_latest(out, nullptr) == 2);
+  CHECK(out[0].motor == 0);
+  CHECK(out[0].period_q8 == 1000000);
+  CHECK(out[1].motor == 2);
+  CHECK(out[1].period_q8 == 1200000);
+  CHECK_FALSE(c.pending());
+}
+
+TEST_CASE("live: a new link gets the watchdog and the held notes, the old one nothing more", "[live]") {
+  FakeLink first, second;
+  LiveSession s({{&first, 2, kF}}, pool_config({{&first, 2, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  REQUIRE(eventually([&] { return periods_of(entries_of(first.frames()), 0) == std::vector<uint32_t>{a4}; }));
+  REQUIRE(s.detach_link(0));
+  const size_t first_frames = first.frames().size();
+  const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100)));  // played while no board is there
+  REQUIRE(eventually([&] { return s.events() == 2; }));
+  s.attach_link(0, &second);
+  REQUIRE(eventually([&] { return entries_of(second.frames()).size() >= 2; }));
+  s.stop();
+  CHECK(first.frames().size() == first_frames);
+  const auto frames = second.frames();
+  REQUIRE_FALSE(frames.empty());
+  CHECK(frames.front()[0] == sc::kMsgWatchdog);
+  const auto entries = entries_of(frames);
+  CHECK(periods_of(entries, 0) == std::vector<uint32_t>{a4, 0});
+  CHECK(periods_of(entries, 1) == std::vector<uint32_t>{e5, 0});
+  CHECK(frames.back()[0] == sc::kMsgStopAll);
+}
+
+TEST_CASE("live: the entry budget allows a burst, then the average rate", "[live]") {
+  EntryBudget b;
+  b.refill(1000000);
+  REQUIRE(b.can_send());
+  CHECK(b.wait_us() == 0);
+  b.spend(static_cast<size_t>(kLinkBurstEntries) + 4);  // a burst, then a four-note frame over
+  CHECK_FALSE(b.can_send());
+  const uint64_t wait = b.wait_us();
+  CHECK(wait == static_cast<uint64_t>((4 * 1000000 + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond));
+  b.refill(1000000 + wait - 1);
+  CHECK_FALSE(b.can_send());
+  b.refill(1000000 + wait);
+  CHECK(b.can_send());
+  b.refill(1000000 + 60 * 1000000ull);  // a minute idle: no more than one burst saved up
+  b.spend(static_cast<size_t>(kLinkBurstEntries));
+  CHECK(b.can_send());
+  b.spend(1);
+  CHECK_FALSE(b.can_send());
+}
+
+TEST_CASE("live: the writer keeps to the entry budget when events come faster", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < 2000; ++i) {  // 2000 notes, each on then off, as fast as the queue takes them
+    const uint8_t n = static_cast<uint8_t>(40 + i % 40);
+    while (!s.midi_queue().try_enqueue(note_on(0, n, 100))) std::this_thread::yield();
+    while (!s.midi_queue().try_enqueue(note_off(0, n))) std::this_thread::yield();
+  }
+  REQUIRE(eventually([&] { return s.events() == 4000; }));
+  s.stop();
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Upper bound on the entries written: one burst plus the rate over the time it took, plus the
+  // frame that may go over and the final silences.
+  const double allowed = double(kLinkBurstEntries) + double(kLinkEntriesPerSecond) * elapsed_s + 4 + 4;
+  CHECK(static_cast<double>(s.board_stats(0).entries_sent.load()) <= allowed);
+  for (uint8_t m = 0; m < 4; ++m) {
+    const auto p = periods_of(entries_of(link.frames()), m);
+    if (!p.empty()) CHECK(p.back() == 0);
+  }
+}
+
+TEST_CASE("live: every motor's state is sent again periodically", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), 20);
+  s.start();
+  const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  // The held note and the silent motor come again and again; the refreshes are no latency sample.
+  REQUIRE(eventually([&] {
+    const auto e = entries_of(link.frames());
+    const auto m0 = periods_of(e, 0);
+    return std::count(m0.begin(), m0.end(), a4) >= 2 && periods_of(e, 1).size() >= 2;
+  }));
+  s.stop();
+  const auto e = entries_of(link.frames());
+  // Motor 0: silence (refreshed before the note came), the note (refreshed), silence (stop()).
+  const auto m0 = periods_of(e, 0);
+  const auto first_note = std::find(m0.begin(), m0.end(), a4);
+  REQUIRE(first_note != m0.end());
+  const auto after_note = std::find(first_note, m0.end(), 0u);
+  CHECK(std::count(m0.begin(), first_note, 0u) == first_note - m0.begin());
+  CHECK(std::count(first_note, after_note, a4) >= 2);  // the note and at least one refresh of it
+  CHECK(std::count(first_note, after_note, a4) == after_note - first_note);
+  REQUIRE(after_note != m0.end());
+  CHECK(std::count(after_note, m0.end(), 0u) == m0.end() - after_note);
+  for (uint32_t p : periods_of(e, 1)) CHECK(p == 0);
+  INFO("latency samples: " << s.latency().count());
+  CHECK(s.latency().count() >= 1);  // the note-on (stop()'s silence may fold into a refresh)
+  CHECK(s.latency().count() <= 2);
+}
+
+TEST_CASE("live: the MIDI callback's work queues stamped events and counts what does not fit", "[live]") {
+  MidiQueue queue(2);
+  auto in = MidiIn::without_port(queue);
+  const uint64_t before_us = monotonic_us();
+  const unsigned char on[] = {0x91, 64, 90};
+  const unsigned char clock[] = {0xF8};
+  in->on_message(on, sizeof on);     // in a Debug build this aborts if it allocates (rt_guard.h)
+  in->on_message(clock, sizeof clock);
+  MidiEvent e{};
+  REQUIRE(queue.try_dequeue(e));
+  CHECK(e.status == 0x91);
+  CHECK(e.data1 == 64);
+  CHECK(e.timestamp_us >= before_us);
+  CHECK_FALSE(queue.try_dequeue(e));  // the clock byte is no channel message
+  for (int i = 0; i < 20; ++i) in->on_message(on, sizeof on);
+  CHECK(in->received() + in->dropped() == 21);
+  CHECK(in->dropped() > 0);
+}
+
+TEST_CASE("live: in Debug builds an allocation inside real-time code aborts", "[live]") {
+  if (!rt_guard_enabled()) {
+    SUCCEED("this build has no real-time guard (it is on in Debug builds)");
+    return;
+  }
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    RtScope rt;
+    volatile int *leak = new int(1);
+    (void)leak;
+    _exit(0);
+  }
+  int status = 0;
+  REQUIRE(waitpid(child, &status, 0) == child);
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGABRT);
+}
