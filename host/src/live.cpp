@@ -96,19 +96,19 @@ bool Coalescer::pending() const noexcept {
 }
 
 // ---------------------------------------------------------------------------------------------
-// EntryBudget
+// LinkBudget
 // ---------------------------------------------------------------------------------------------
 
-void EntryBudget::refill(uint64_t now_us) noexcept {
+void LinkBudget::refill(uint64_t now_us) noexcept {
   if (last_us_ != 0 && now_us > last_us_) {
     const uint64_t elapsed_us = std::min<uint64_t>(now_us - last_us_, 10 * kMicro);  // no overflow
-    credit_ = std::min(kLinkBurstEntries * kMicro, credit_ + static_cast<int64_t>(elapsed_us) * kLinkEntriesPerSecond);
+    credit_ = std::min(kBurstBytes * kMicro, credit_ + static_cast<int64_t>(elapsed_us) * kBytesPerSecond);
   }
   last_us_ = now_us;
 }
 
-uint64_t EntryBudget::wait_us() const noexcept {
-  return credit_ >= 0 ? 0 : static_cast<uint64_t>((-credit_ + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond);
+uint64_t LinkBudget::wait_us() const noexcept {
+  return credit_ >= 0 ? 0 : static_cast<uint64_t>((-credit_ + kBytesPerSecond - 1) / kBytesPerSecond);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -330,8 +330,8 @@ void LiveSession::writer_loop(BoardThreads &b) {
   uint64_t event_us[Coalescer::kMaxMotors];
   auto last_write = Clock::now(), last_status = Clock::now(), last_refresh = Clock::now();
   bool parked = false;
-  EntryBudget budget;
-  uint64_t sent_entries = stats.entries_sent.load(std::memory_order_relaxed);
+  LinkBudget budget;
+  uint64_t sent_bytes = stats.bytes_sent.load(std::memory_order_relaxed);
   for (;;) {
     const bool stopping = b.stop_writer.load(std::memory_order_acquire);
     // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
@@ -383,9 +383,9 @@ void LiveSession::writer_loop(BoardThreads &b) {
       write_payload(link, stats, &req, 1);
       last_status = now;
     }
-    const uint64_t total = stats.entries_sent.load(std::memory_order_relaxed);
-    budget.spend(total - sent_entries);
-    sent_entries = total;
+    const uint64_t total = stats.bytes_sent.load(std::memory_order_relaxed);
+    budget.spend(total - sent_bytes);  // every byte on the line counts, heartbeats too
+    sent_bytes = total;
   }
   // Every motor got its silent entry from the engine's panic; stop-all also empties the board's
   // queue and turns the drivers off.

@@ -42,36 +42,36 @@ using UpdateQueue = moodycamel::BlockingReaderWriterQueue<MotorUpdate>;
 constexpr int kHeartbeatMs = sc::kWatchdogDefaultMs / 4;
 // Status request (link health) this often.
 constexpr int kStatusEveryMs = 1000;
-// Pacing: the firmware's main loop cannot take motor commands as fast as the line carries
-// them (docs/ARCHITECTURE.md: at full line speed it decodes a fraction of the frames and loses
-// the rest). A writer sends at most kLinkEntriesPerSecond set-period entries a second on
-// average, in bursts of up to kLinkBurstEntries. Measured on the Uno with four motors changing
-// note 20,000 times a second (bench/results/live-throughput.md): about 2,000 entries a second
-// (500 four-entry frames) overran the board's UART; 1,000 did not. A player never meets the
-// limit; beyond it the writer coalesces (latest state per motor, silences kept).
-constexpr int64_t kLinkEntriesPerSecond = 1200;
-constexpr int64_t kLinkBurstEntries = 8;
+// Pacing: the firmware's main loop cannot take frames as fast as the line carries them, so a
+// writer keeps to the protocol's link budget (sc::kLinkBudgetBytesPerSecond in bursts of at
+// most sc::kLinkBurstBytes, every byte it writes counted). Measured on the Uno with four motors
+// changing note 20,000 times a second (bench/results/live-throughput.md): about 2,000
+// set-period entries a second overran the board's UART; 1,200 (the pacing then) did not. A
+// player never meets the limit; beyond it the writer coalesces (latest state per motor,
+// silences kept).
 
 // Every motor's state is sent again this often, so that a frame the board lost (line noise,
 // an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
 // period keeps its phase; silence to a silent motor does nothing.
 constexpr int kRefreshMs = 250;
 
-// A budget of set-period entries refilled at kLinkEntriesPerSecond up to kLinkBurstEntries.
-// Pure; the writer owns one.
-class EntryBudget {
+// The link budget: bytes refilled at sc::kLinkBudgetBytesPerSecond up to sc::kLinkBurstBytes
+// (a token bucket). Pure; the writer owns one.
+class LinkBudget {
  public:
+  static constexpr int64_t kBytesPerSecond = sc::kLinkBudgetBytesPerSecond;
+  static constexpr int64_t kBurstBytes = sc::kLinkBurstBytes;
   // Called from: the writer thread, with the monotonic time. Does not allocate.
   void refill(uint64_t now_us) noexcept;
-  // True when a frame may go now (the budget may then go negative by that frame's entries).
+  // True when a frame may go now (the budget may then go negative by that frame's bytes).
   bool can_send() const noexcept { return credit_ >= 0; }
-  void spend(size_t entries) noexcept { credit_ -= static_cast<int64_t>(entries) * kMicro; }
+  void spend(size_t bytes) noexcept { credit_ -= static_cast<int64_t>(bytes) * kMicro; }
   // How long until can_send(), in us (0 when it already can).
   uint64_t wait_us() const noexcept;
 
  private:
-  static constexpr int64_t kMicro = 1000000;     // credit in millionths of an entry, so that
-  int64_t credit_ = kLinkBurstEntries * kMicro;  // 1 us adds exactly kLinkEntriesPerSecond
+  static constexpr int64_t kMicro = 1000000;  // credit in millionths of a byte, so that
+  int64_t credit_ = kBurstBytes * kMicro;     // 1 us adds exactly kBytesPerSecond
   uint64_t last_us_ = 0;
 };
 

@@ -330,27 +330,27 @@ TEST_CASE("live: a new link gets the watchdog and the held notes, the old one no
   CHECK(frames.back()[0] == sc::kMsgStopAll);
 }
 
-TEST_CASE("live: the entry budget allows a burst, then the average rate", "[live]") {
-  EntryBudget b;
+TEST_CASE("live: the link budget allows a burst, then the average rate", "[live]") {
+  LinkBudget b;
   b.refill(1000000);
   REQUIRE(b.can_send());
   CHECK(b.wait_us() == 0);
-  b.spend(static_cast<size_t>(kLinkBurstEntries) + 4);  // a burst, then a four-note frame over
+  b.spend(static_cast<size_t>(LinkBudget::kBurstBytes) + 20);  // a burst, then a four-note frame over
   CHECK_FALSE(b.can_send());
   const uint64_t wait = b.wait_us();
-  CHECK(wait == static_cast<uint64_t>((4 * 1000000 + kLinkEntriesPerSecond - 1) / kLinkEntriesPerSecond));
+  CHECK(wait == static_cast<uint64_t>((20 * 1000000 + LinkBudget::kBytesPerSecond - 1) / LinkBudget::kBytesPerSecond));
   b.refill(1000000 + wait - 1);
   CHECK_FALSE(b.can_send());
   b.refill(1000000 + wait);
   CHECK(b.can_send());
   b.refill(1000000 + 60 * 1000000ull);  // a minute idle: no more than one burst saved up
-  b.spend(static_cast<size_t>(kLinkBurstEntries));
+  b.spend(static_cast<size_t>(LinkBudget::kBurstBytes));
   CHECK(b.can_send());
   b.spend(1);
   CHECK_FALSE(b.can_send());
 }
 
-TEST_CASE("live: the writer keeps to the entry budget when events come faster", "[live]") {
+TEST_CASE("live: the writer keeps to the link budget when events come faster", "[live]") {
   FakeLink link;
   LiveSession s({{&link, 4, kF}}, pool_config({{&link, 4, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
@@ -363,10 +363,10 @@ TEST_CASE("live: the writer keeps to the entry budget when events come faster", 
   REQUIRE(eventually([&] { return s.events() == 4000; }));
   s.stop();
   const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  // Upper bound on the entries written: one burst plus the rate over the time it took, plus the
-  // frame that may go over and the final silences.
-  const double allowed = double(kLinkBurstEntries) + double(kLinkEntriesPerSecond) * elapsed_s + 4 + 4;
-  CHECK(static_cast<double>(s.board_stats(0).entries_sent.load()) <= allowed);
+  // Upper bound on the bytes written: one burst plus the rate over the time it took, plus the
+  // frame that may go over, the final silences and the stop-all (two 20-byte frames, 5 bytes).
+  const double allowed = double(LinkBudget::kBurstBytes) + double(LinkBudget::kBytesPerSecond) * elapsed_s + 20 + 20 + 5;
+  CHECK(static_cast<double>(s.board_stats(0).bytes_sent.load()) <= allowed);
   for (uint8_t m = 0; m < 4; ++m) {
     const auto p = periods_of(entries_of(link.frames()), m);
     if (!p.empty()) CHECK(p.back() == 0);
