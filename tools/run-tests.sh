@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # run-tests.sh: installs dependencies, configures into build/, builds everything (host,
 # firmware for both boards, virtual board), then runs every test under ctest; then the host
-# and unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/), and
-# each libFuzzer target for a bounded time (tools/fuzz.sh; longer runs: tools/fuzz.sh 600).
+# and unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/), the
+# live path's threaded tests under ThreadSanitizer (build-tsan/), and each libFuzzer target
+# for a bounded time (tools/fuzz.sh; longer runs: tools/fuzz.sh 600).
 # Options are passed to the first ctest runs (e.g. -R pattern). STEPCHOIR_QUICK=1 skips the
 # sanitizer and fuzzing stages.
 set -euo pipefail
@@ -29,6 +30,12 @@ cmake --build build-asan -j"$(nproc)"
   export UBSAN_OPTIONS="print_stacktrace=1"
   ctest --output-on-failure -j"$(nproc)" -LE e2e
 )
+
+# ThreadSanitizer over the threaded live path (MIDI callback queue, engine, writer, reader,
+# session): its test program, built with -fsanitize=thread.
+cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTEPCHOIR_SANITIZE=thread
+cmake --build build-tsan -j"$(nproc)" --target test_live
+TSAN_OPTIONS="halt_on_error=1 suppressions=$PWD/tests/sanitizers/tsan.supp" build-tsan/bin/test_live
 
 # Fuzzing, bounded: each target 30 s; any crash, leak, hang or sanitizer report fails.
 tools/fuzz.sh 30
