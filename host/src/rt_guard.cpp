@@ -40,6 +40,18 @@ static void *checked_alloc(std::size_t size) {
 }
 void *operator new(std::size_t size) { return checked_alloc(size); }
 void *operator new[](std::size_t size) { return checked_alloc(size); }
+// The nothrow forms too, so that every new and delete of the program pair up (a sanitizer
+// checks that they do).
+void *operator new(std::size_t size, const std::nothrow_t &) noexcept {
+  try {
+    return checked_alloc(size);
+  } catch (const std::bad_alloc &) {
+    return nullptr;
+  }
+}
+void *operator new[](std::size_t size, const std::nothrow_t &t) noexcept { return operator new(size, t); }
+void operator delete(void *p, const std::nothrow_t &) noexcept { std::free(p); }
+void operator delete[](void *p, const std::nothrow_t &) noexcept { std::free(p); }
 void operator delete(void *p) noexcept { std::free(p); }
 void operator delete[](void *p) noexcept { std::free(p); }
 void operator delete(void *p, std::size_t) noexcept { std::free(p); }
