@@ -108,9 +108,11 @@ inline uint32_t wait_board_time(stepchoir::Board &b, uint32_t target_ticks, int 
 }
 
 // Starts `motor` at period_q8 with an `at` frame lead_s ahead of the board clock (the motor
-// must be silent: its first step then falls exactly on the returned board time).
+// must be silent: its first step then falls exactly on the returned board time). The lead
+// covers the host's round trip when the simulation runs unpaced on a busy machine (a frame
+// that comes after its time is played at once, and the note then starts late).
 inline uint32_t start_note_at(stepchoir::Board &b, uint8_t motor, uint32_t period_q8, uint32_t f_cpu_hz,
-                              double lead_s = 0.005) {
+                              double lead_s = 0.05) {
   const uint32_t at = board_ticks(b, 0x5a) + static_cast<uint32_t>(lead_s * f_cpu_hz);
   b.send(at_payload(at, {{motor, period_q8}}));
   return at;
