@@ -27,6 +27,13 @@ double cpu_seconds() {
   return u.ru_utime.tv_sec + u.ru_utime.tv_usec / 1e6 + u.ru_stime.tv_sec + u.ru_stime.tv_usec / 1e6;
 }
 
+// Peak resident memory of this process so far, in MiB. Called from: main.
+double peak_rss_mib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
 // Wire time of a payload's frame at the protocol's baud rate, 10 bits a byte (8N1), in us.
 double wire_us(uint8_t payload_bytes) { return sc::frame_wire_size(payload_bytes) * 10.0 * 1e6 / sc::kBaud; }
 
@@ -40,7 +47,7 @@ int main(int argc, char **argv) {
   double rate_hz = 1000;
   std::string out_dir = "bench/results", board_name = "uno", name = "live-latency";
   CLI::App app{"stepchoir-bench-live: live path latency, MIDI callback -> frame handed to the OS"};
-  app.add_option("--events", events, "note events to send (default 10000)")->check(CLI::Range(10, 1000000));
+  app.add_option("--events", events, "note events to send (default 10000)")->check(CLI::Range(10, 2000000));
   app.add_option("--rate", rate_hz, "events per second (default 1000)")->check(CLI::Range(1.0, 20000.0));
   app.add_option("--out", out_dir, "directory for the results (default bench/results)");
   app.add_option("--name", name, "results file name without .md (default live-latency)");
@@ -129,7 +136,8 @@ int main(int argc, char **argv) {
       << "| frames written / heartbeats | " << session.board_stats(0).frames_sent.load() << " / "
       << session.board_stats(0).heartbeats.load() << " |\n"
       << "| CPU of this process (sender, MidiIn, engine, writer, reader) | " << 100.0 * cpu_s / wall_s
-      << " % of one core over " << wall_s << " s |\n\n"
+      << " % of one core over " << wall_s << " s |\n"
+      << "| peak memory of this process (resident) | " << peak_rss_mib() << " MiB |\n\n"
       << "The firmware's part (frame's last byte -> first STEP edge) is measured on the virtual board "
          "separately; the whole-system figure is this p99 + wire time + that. A note-on on a DIN MIDI cable "
          "takes 960 us (3 bytes at 31,250 baud).\n\n"
