@@ -50,7 +50,7 @@ static const uint8_t kMergeTicks = 64;
 
 // The compare unit fires this long before a deadline: time for the ISR's prologue (run with
 // interrupts on) and a nested UART ISR, before kCliLeadTicks. 37.5 us: 450 made edges late
-// under UART traffic (bench: p99 7.7 us instead of 5.3 on the Uno).
+// under UART traffic (one bench run each: worst-note p99 7.7 us instead of 5.3 on the Uno).
 static const uint16_t kEarlyTicks = 600;
 
 // An edge due within this long is waited for rather than starting a command from the main loop:
