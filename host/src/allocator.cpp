@@ -276,7 +276,10 @@ void Allocator::mono_update(uint8_t ch) noexcept {
 }
 
 bool Allocator::resolve(size_t m, uint8_t note, uint8_t *played, int *octaves) const noexcept {
-  const MotorConfig &mc = config_.motors[m];
+  return resolve_note(config_.motors[m], note, played, octaves);
+}
+
+bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves) noexcept {
   const int lo = mc.lowest_note, hi = mc.highest_note;
   const int want = note + mc.transpose;
   // Nearest octave inside the range: how far the note must move to get in, if it is out.

@@ -65,6 +65,11 @@ struct MotorConfig {
   std::bitset<128> muted;        // MIDI notes this motor must not play (after transpose)
 };
 
+// The note motor config mc plays for a key (transpose, octave folding into its range, mutes)
+// and how many octaves it had to move; false when every octave of it inside the range is
+// muted. Called from: the Allocator (live) and the song planner. Pure.
+bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves) noexcept;
+
 struct AllocatorConfig {
   static constexpr size_t kMaxMotors = 32;  // motors one Allocator can drive
 

@@ -23,6 +23,7 @@
 #include "config.h"
 #include "live.h"
 #include "midi_in.h"
+#include "vboard_child.h"
 
 extern char **environ;
 
@@ -34,63 +35,6 @@ std::string note_name(int note) {
   static const char *const kNames[12] = {"C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B"};
   return std::string(kNames[note % 12]) + std::to_string(note / 12 - 1);
 }
-
-// The virtual board as a child process, for `live` without --port. Stopped (SIGTERM) when
-// destroyed.
-class VirtualBoard {
- public:
-  // Called from: run_live. Starts <dir of this program>/stepchoir-vboard on link_path (with
-  // a trace when trace_path is not empty) and waits until the link exists; throws
-  // std::runtime_error when it cannot.
-  VirtualBoard(const std::string &board, const std::string &link_path, const std::string &trace_path) {
-    char self[PATH_MAX];
-    const ssize_t n = ::readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n <= 0) throw std::runtime_error("cannot find this program's directory");
-    self[n] = 0;
-    std::string dir(self);
-    path_ = dir.substr(0, dir.rfind('/')) + "/stepchoir-vboard";
-    std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet"};
-    if (!trace_path.empty()) args.insert(args.end(), {"--trace", trace_path});
-    std::vector<char *> argv;
-    for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    // Its own process group: Ctrl-C reaches this program only, which silences the motors
-    // first and then stops the board.
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-    posix_spawnattr_setpgroup(&attr, 0);
-    const int rc = posix_spawn(&pid_, path_.c_str(), &fa, &attr, argv.data(), environ);
-    posix_spawnattr_destroy(&attr);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw std::runtime_error("cannot start the virtual board " + path_);
-    struct stat st;
-    for (int i = 0; i < 200 && ::lstat(link_path.c_str(), &st) != 0; ++i) {
-      int status;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        throw std::runtime_error("the virtual board " + path_ + " exited at start");
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(25));
-    }
-  }
-  ~VirtualBoard() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);
-    int status;
-    waitpid(pid_, &status, 0);
-  }
-  VirtualBoard(const VirtualBoard &) = delete;
-  VirtualBoard &operator=(const VirtualBoard &) = delete;
-  const std::string &path() const { return path_; }
-
- private:
-  pid_t pid_ = -1;
-  std::string path_;
-};
 
 // Called from: run_live, every 100 ms. The one status line: motors, link, latency.
 std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<Board>> &boards) {
@@ -216,7 +160,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::unique_ptr<VirtualBoard> vboard;
   if (ports.empty()) {
     const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
-    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace);
+    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace, std::vector<std::string>{});
     std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n",
                 o.vboard_board.c_str(), link.c_str());
     ports.push_back(link);

@@ -1,4 +1,5 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config, gcode.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config, gcode,
+// play, render.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -12,6 +13,7 @@
 #include "link.h"
 #include "live_cli.h"
 #include "pitch.h"
+#include "player/play_command.h"
 #include "song/gcode_command.h"
 
 namespace {
@@ -20,6 +22,9 @@ std::atomic<bool> g_stop{false};
 
 // Called from: signal context. Only sets a flag.
 void on_signal(int) { g_stop = true; }
+
+// Called from: signal context (SIGUSR1). Pauses or resumes a running `play`.
+void on_pause_signal(int) { stepchoir::toggle_play_pause(); }
 
 // Prints a board's capabilities.
 void print_caps(const stepchoir::Caps &c) {
@@ -143,6 +148,7 @@ int main(int argc, char **argv) {
       ->check(CLI::ExistingFile);
   config->require_option(1);
   const auto gcode = stepchoir::add_gcode_command(app);
+  const auto play = stepchoir::add_play_commands(app);
 
   CLI11_PARSE(app, argc, argv);
   if (app.got_subcommand(gcode->app)) return gcode->run();
@@ -157,6 +163,10 @@ int main(int argc, char **argv) {
       return 0;
     }
     if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
+    if (app.got_subcommand(play->play) || app.got_subcommand(play->render)) {
+      std::signal(SIGUSR1, on_pause_signal);
+      return play->run(g_stop);
+    }
     if (app.got_subcommand(config)) {
       if (*print_default) std::fputs(stepchoir::default_config_text(), stdout);
       if (!check_path.empty()) {

@@ -17,9 +17,10 @@ inline double note_hz(double midi_note, double a4_hz = kA4Hz) {
   return a4_hz * std::exp2((midi_note - 69.0) / 12.0);
 }
 
-// Period in ticks q8 for freq_hz on a board clocked at f_cpu_hz; 0 for freq_hz <= 0.
+// Period in ticks q8 for freq_hz on a board clocked at f_cpu_hz (a measured rate may be
+// fractional: the player corrects pitch for a crystal that is off); 0 for freq_hz <= 0.
 // Returns 0 too when the period does not fit the 28-bit field (below ~15 Hz at 16 MHz).
-inline uint32_t hz_to_period_q8(double freq_hz, uint32_t f_cpu_hz) {
+inline uint32_t hz_to_period_q8(double freq_hz, double f_cpu_hz) {
   if (!(freq_hz > 0)) return sc::kPeriodSilent;
   const double q8 = std::round(f_cpu_hz * 256.0 / freq_hz);
   if (q8 > sc::kPeriodQ8Max || q8 < 1) return sc::kPeriodSilent;

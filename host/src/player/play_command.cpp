@@ -1,0 +1,260 @@
+// play_command.cpp: `stepchoir play` and `stepchoir render`: song -> plan -> Player on a board
+// (a real one, or the virtual board started here), with a progress line and a report.
+#include "player/play_command.h"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "board.h"
+#include "link.h"
+#include "pitch.h"
+#include "player/plan.h"
+#include "player/player.h"
+#include "song/song.h"
+#include "vboard_child.h"
+
+extern char **environ;
+
+namespace stepchoir {
+
+namespace {
+
+std::atomic<bool> g_pause{false};
+
+// "1:05" for 65 s. Called from: the progress line.
+std::string clock_text(double s) {
+  const int total = static_cast<int>(std::max(0.0, s));
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%d:%02d", total / 60, total % 60);
+  return buf;
+}
+
+// Keys on a terminal: space or p pauses and resumes, q stops. Raw mode while it lives.
+class Keys {
+ public:
+  // Called from: PlayCommand::run. Does nothing when stdin is no terminal.
+  Keys() {
+    if (!::isatty(0) || tcgetattr(0, &saved_) != 0) return;
+    termios raw = saved_;
+    raw.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 0;
+    active_ = tcsetattr(0, TCSANOW, &raw) == 0;
+  }
+  ~Keys() {
+    if (active_) tcsetattr(0, TCSANOW, &saved_);
+  }
+  // Called from: the progress callback. Applies the keys pressed since; true on q.
+  bool poll() {
+    if (!active_) return false;
+    char c;
+    while (::read(0, &c, 1) == 1) {
+      if (c == ' ' || c == 'p') toggle_play_pause();
+      if (c == 'q') return true;
+    }
+    return false;
+  }
+
+ private:
+  termios saved_{};
+  bool active_ = false;
+};
+
+// The plan options from the command line, for `motors` motors of the board's clock.
+// Called from: PlayCommand::run.
+PlanOptions plan_options(const SongSelection &sel, size_t motors) {
+  PlanOptions p;
+  p.tempo_scale = sel.tempo;
+  p.transpose = sel.transpose;
+  p.start_s = sel.start_s;
+  p.min_note_s = sel.min_note_ms / 1e3;
+  p.tracks = sel.tracks;
+  p.mute_tracks = sel.mute_tracks;
+  for (int c : sel.channels) p.channels.push_back(c - 1);
+  for (int c : sel.mute_channels) p.mute_channels.push_back(c - 1);
+  p.motors.assign(motors, MotorConfig{});
+  return p;
+}
+
+// Prints what the plan leaves out. Called from: PlayCommand::run.
+void report_plan(const std::string &cmd, const Song &song, const Plan &plan, size_t motors) {
+  size_t busy = 0, short_notes = 0, range = 0;
+  for (const UnplayedNote &u : plan.unplayed)
+    (u.why == Unplayed::kNoMotor ? busy : u.why == Unplayed::kTooShort ? short_notes : range)++;
+  std::printf("%s: %zu notes (%s), %zu played on %zu motors", cmd.c_str(), plan.selected,
+              clock_text(plan.duration_s).c_str(), plan.notes.size(), motors);
+  if (!plan.unplayed.empty())
+    std::printf("; not played: %zu (every motor busy %zu, shorter than the minimum %zu, out of range %zu)",
+                plan.unplayed.size(), busy, short_notes, range);
+  if (plan.shortened) std::printf("; %zu cut short for another", plan.shortened);
+  std::printf("\n");
+  for (size_t i = 0; i < plan.unplayed.size() && i < 5; ++i) {
+    const SongNote &n = song.notes[plan.unplayed[i].song_index];
+    std::printf("  not played: note %u at %.3f s (track %u, channel %u): %s\n", n.midi_note, n.onset_s, n.track,
+                n.channel + 1, unplayed_reason(plan.unplayed[i].why));
+  }
+  if (plan.unplayed.size() > 5) std::printf("  ... and %zu more\n", plan.unplayed.size() - 5);
+  std::fflush(stdout);
+}
+
+// Runs `prog` beside this program with args, waits; its exit status (or -1).
+// Called from: render (stepchoir-render).
+int run_sibling(const std::string &vboard_path, const std::string &prog, std::vector<std::string> args) {
+  const std::string path = vboard_path.substr(0, vboard_path.rfind('/')) + "/" + prog;
+  args.insert(args.begin(), path);
+  std::vector<char *> argv;
+  for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid;
+  if (posix_spawn(&pid, path.c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+void toggle_play_pause() { g_pause.store(!g_pause.load()); }
+
+std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
+  auto c = std::make_unique<PlayCommand>();
+  auto selection = [&c](CLI::App *s) {
+    s->add_option("song", c->song, "Song file: Standard MIDI File (.mid) or music2gcode song (.sng)")
+        ->required()->check(CLI::ExistingFile);
+    s->add_option("--tempo", c->sel.tempo, "Tempo scale (2 = twice as fast)")->check(CLI::Range(0.05, 20.0));
+    s->add_option("--transpose", c->sel.transpose, "Semitones up (negative: down)")->check(CLI::Range(-48, 48));
+    s->add_option("--start", c->sel.start_s, "Start this many seconds into the song")->check(CLI::NonNegativeNumber);
+    s->add_option("--tracks", c->sel.tracks, "Play only these tracks (0 = the file's first)")->delimiter(',');
+    s->add_option("--channels", c->sel.channels, "Play only these MIDI channels (1-16)")
+        ->delimiter(',')->check(CLI::Range(1, 16));
+    s->add_option("--mute-tracks", c->sel.mute_tracks, "Leave these tracks out")->delimiter(',');
+    s->add_option("--mute-channels", c->sel.mute_channels, "Leave these MIDI channels out (1-16)")
+        ->delimiter(',')->check(CLI::Range(1, 16));
+    s->add_option("--min-note-ms", c->sel.min_note_ms, "Leave out notes shorter than this")
+        ->check(CLI::Range(0.0, 1000.0))->default_val(c->sel.min_note_ms);
+    s->add_option("--vboard", c->vboard, "Board the virtual board simulates (without --port)")
+        ->check(CLI::IsMember({"uno", "mega"}))->default_val(c->vboard);
+  };
+  c->play = app.add_subcommand("play", "Play a song file on the motors (space pauses, q or Ctrl-C stops)");
+  selection(c->play);
+  c->play->add_option("--port,-p", c->port, "Board (none: the virtual board, in real time)");
+  c->play->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
+  c->play->add_option("--clock-ppm", c->clock_ppm, "Without --port: the virtual board's crystal error")
+      ->check(CLI::Range(-20000.0, 20000.0));
+  c->play->add_option("--lead-ms", c->lead_ms, "Send each note this long before it plays")
+      ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
+  c->play->add_option("--sync-s", c->sync_s, "Clock sync before the first note")
+      ->check(CLI::Range(0.1, 30.0))->default_val(c->sync_s);
+  c->play->add_flag("--loop", c->loop, "Start again at the end (Ctrl-C stops)");
+  c->play->add_flag("--no-auto-tune", c->no_auto_tune, "Periods from the board's nominal clock, not the measured one");
+  c->play->add_flag("--quiet,-q", c->quiet, "No progress line");
+  c->play->add_option("--dry-run", c->dry_run_motors, "Print which motor plays what for N motors; play nothing")
+      ->check(CLI::Range(1, 32));
+  c->render = app.add_subcommand("render", "Play a song through the firmware on the virtual board, as fast as it "
+                                           "runs, and write what the motors played");
+  selection(c->render);
+  c->render->add_option("-o,--out", c->out_wav, "WAV file to write")->required();
+  c->render->add_option("--png", c->out_png, "Piano-roll picture to write");
+  c->render->add_option("--trace", c->keep_trace, "Keep the virtual board's trace (CSV) here");
+  return c;
+}
+
+int PlayCommand::run(std::atomic<bool> &stop) const {
+  const bool rendering = render && render->parsed();
+  const std::string cmd = rendering ? "render" : "play";
+  try {
+    const Song song = read_song_file(this->song);
+    for (const std::string &w : song.warnings) std::fprintf(stderr, "%s: warning: %s\n", cmd.c_str(), w.c_str());
+    if (dry_run_motors > 0) {
+      const Plan plan = plan_song(song, plan_options(sel, static_cast<size_t>(dry_run_motors)));
+      report_plan(cmd, song, plan, static_cast<size_t>(dry_run_motors));
+      for (const PlanEvent &e : plan_events(plan)) {
+        if (e.silent)
+          std::printf("%10.4f s  motor %u  silent\n", e.time_s, e.motor);
+        else
+          std::printf("%10.4f s  motor %u  note %.2f (%.3f Hz)\n", e.time_s, e.motor, e.pitch, note_hz(e.pitch));
+      }
+      return 0;
+    }
+    std::unique_ptr<VirtualBoard> vb;
+    std::string link_path = port, trace = rendering ? keep_trace : vboard_trace;
+    if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
+    if (link_path.empty()) {
+      link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + ".pty";
+      std::vector<std::string> extra;
+      if (rendering) extra.push_back("--no-pacing");
+      if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
+      vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
+      if (!rendering) std::printf("play: no --port: playing on the virtual board (%s) at %s\n", vboard.c_str(), link_path.c_str());
+    }
+    auto board = std::make_unique<Board>(open_link(link_path));
+    const Caps caps = board->hello();
+    const Plan plan = plan_song(song, plan_options(sel, caps.motor_count));
+    report_plan(cmd, song, plan, caps.motor_count);
+    PlayerOptions po;
+    po.board_time = rendering;
+    po.lead_s = lead_ms / 1e3;
+    po.sync_s = sync_s;
+    po.loop = loop && !rendering;
+    po.auto_tune = !no_auto_tune;
+    Player player(std::move(board), caps, plan_events(plan), plan.duration_s, po,
+                  [link_path] { return open_link(link_path); });
+    Keys keys;
+    const bool show = !quiet && !rendering && ::isatty(2);
+    const bool ok = player.run(
+        stop, g_pause, [&](const PlayerProgress &p) {
+          if (keys.poll()) stop = true;
+          if (!show) return;
+          const int width = 30;
+          const int done = p.duration_s > 0 ? static_cast<int>(width * p.position_s / p.duration_s) : width;
+          std::fprintf(stderr, "\r%s %s / %s [%s%s]%s late %llu%s\033[K", p.paused ? "paused " : "playing",
+                       clock_text(p.position_s).c_str(), clock_text(p.duration_s).c_str(),
+                       std::string(static_cast<size_t>(std::min(done, width)), '#').c_str(),
+                       std::string(static_cast<size_t>(width - std::min(done, width)), '.').c_str(),
+                       p.loop ? (" loop " + std::to_string(p.loop + 1)).c_str() : "",
+                       static_cast<unsigned long long>(p.stats->late_reported), p.paused ? " (space resumes)" : "");
+        });
+    if (show) std::fprintf(stderr, "\n");
+    const PlayerStats &s = player.stats();
+    std::printf("%s: %s; %llu entries in %llu frames, late %llu, queue full %llu, errors %llu, reconnects %llu, "
+                "least lead %.1f ms, board clock %+.1f ppm (fit error %.0f us)\n",
+                cmd.c_str(), ok ? (stop.load() ? "stopped, every motor silent" : "done, every motor silent")
+                                : "board lost",
+                static_cast<unsigned long long>(s.entries_sent), static_cast<unsigned long long>(s.frames_sent),
+                static_cast<unsigned long long>(s.late_reported), static_cast<unsigned long long>(s.queue_full),
+                static_cast<unsigned long long>(s.other_errors), static_cast<unsigned long long>(s.reconnects),
+                s.min_lead_ms > 1e8 ? 0.0 : s.min_lead_ms, s.ppm, s.residual_us);
+    if (s.board_frames_bad >= 0)
+      std::printf("%s: the board counted %ld bad frames, %ld UART overruns; last error: %s\n", cmd.c_str(),
+                  s.board_frames_bad, s.board_overruns, sc::error_name(s.board_last_error));
+    std::fflush(stdout);
+    if (!ok) {
+      std::fprintf(stderr, "%s: %s\n", cmd.c_str(), player.error().c_str());
+      return 1;
+    }
+    if (rendering) {
+      vb->stop();
+      std::vector<std::string> args{trace, "-o", out_wav};
+      if (!out_png.empty()) args.insert(args.end(), {"--png", out_png});
+      const int rc = run_sibling(vb->path(), "stepchoir-render", args);
+      if (keep_trace.empty()) ::unlink(trace.c_str());
+      if (rc != 0) {
+        std::fprintf(stderr, "render: stepchoir-render failed (exit %d)\n", rc);
+        return 1;
+      }
+      std::printf("render: wrote %s%s%s\n", out_wav.c_str(), out_png.empty() ? "" : " and ", out_png.c_str());
+    }
+    return 0;
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "stepchoir %s: %s\n", cmd.c_str(), e.what());
+    return 1;
+  }
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,49 @@
+// play_command.h: the `stepchoir play` and `stepchoir render` subcommands (a song file through
+// the motors, in real time or as fast as the virtual board runs).
+#ifndef STEPCHOIR_HOST_PLAYER_PLAY_COMMAND_H
+#define STEPCHOIR_HOST_PLAYER_PLAY_COMMAND_H
+
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace stepchoir {
+
+// Options both commands share: what of the song plays, and how.
+struct SongSelection {
+  double tempo = 1.0, start_s = 0;
+  int transpose = 0;
+  std::vector<int> tracks, channels, mute_tracks, mute_channels;  // channels 1-16 as musicians count
+  double min_note_ms = 10;
+};
+
+struct PlayCommand {
+  CLI::App *play = nullptr, *render = nullptr;
+  std::string song;
+  SongSelection sel;
+  // play
+  std::string port, vboard = "uno", vboard_trace;
+  double clock_ppm = 0, lead_ms = 300, sync_s = 1.0;
+  bool loop = false, quiet = false, no_auto_tune = false;
+  int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing
+  // render
+  std::string out_wav, out_png, keep_trace;
+
+  // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C
+  // (the q key sets it too).
+  int run(std::atomic<bool> &stop) const;
+};
+
+// Adds `play` and `render` to the command line. Called by main before parsing.
+std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app);
+
+// Toggles pause in a running `play` (SIGUSR1 does the same, for scripts). Called from: the
+// signal handler main installs.
+void toggle_play_pause();
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_PLAYER_PLAY_COMMAND_H

@@ -1,0 +1,348 @@
+// player.cpp: the song player's loop: clock round trips, `at` frames ahead of time, replies.
+#include "player/player.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "midi_in.h"
+#include "pitch.h"
+
+namespace stepchoir {
+
+namespace {
+
+// Entries the host leaves free in the board's queue: its count of what the board still holds
+// is an estimate.
+constexpr size_t kQueueSpare = 2;
+// An entry is taken as gone from the board's queue this long after its time.
+constexpr double kQueueFreeAfterS = 0.002;
+// Board-time mode: clock round trips this often (the simulated board's speed changes), and
+// the fit's window (samples) and shortest span for a rate.
+constexpr double kBoardTimeClockEveryS = 0.005;
+constexpr size_t kBoardTimeWindow = 16;
+
+}  // namespace
+
+Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanEvent> events, double duration_s,
+               const PlayerOptions &options, LinkOpener opener)
+    : board_(std::move(board)),
+      caps_(caps),
+      events_(std::move(events)),
+      duration_s_(duration_s),
+      opt_(options),
+      opener_(std::move(opener)),
+      sync_(caps.f_cpu_hz) {
+  if (!board_) throw std::invalid_argument("player: no board");
+  if (opt_.motors.empty())
+    for (uint8_t m = 0; m < caps_.motor_count; ++m) opt_.motors.push_back(m);
+  for (const PlanEvent &e : events_)
+    if (e.motor >= opt_.motors.size() || opt_.motors[e.motor] >= caps_.motor_count)
+      throw std::invalid_argument("player: the plan uses motor " + std::to_string(e.motor) + ", the board has " +
+                                  std::to_string(caps_.motor_count));
+  if (opt_.loop && !(duration_s_ > 0)) throw std::invalid_argument("player: an empty song cannot loop");
+  // A board simulated as fast as it runs changes speed all the time, and is this program's
+  // own child: no sample there means a reset.
+  if (opt_.board_time) sync_.set_window(kBoardTimeWindow, 0.02, 1e9);
+}
+
+// Called from: everything that writes. One frame; counts it against the link budget (waiting
+// for it when the budget is spent). False when the link failed.
+bool Player::send_payload(const std::vector<uint8_t> &payload) {
+  const std::vector<uint8_t> wire = frame(payload);
+  budget_.refill(monotonic_us());
+  while (!budget_.can_send()) {
+    std::this_thread::sleep_for(std::chrono::microseconds(budget_.wait_us()));
+    budget_.refill(monotonic_us());
+  }
+  bool ok = false;
+  try {
+    ok = board_->link().write(wire.data(), wire.size());
+  } catch (const std::exception &) {
+  }
+  if (!ok) {
+    board_lost_ = true;
+    return false;
+  }
+  budget_.spend(wire.size());
+  ++stats_.frames_sent;
+  return true;
+}
+
+// Called from: the loop and sync_clock. One clock request, its send time kept by sequence.
+void Player::send_clock_request(uint64_t now_us) {
+  ++clock_seq_;
+  clock_sent_us_[clock_seq_] = now_us;
+  last_clock_us_ = now_us;
+  send_payload({sc::kMsgClockReq, clock_seq_});
+}
+
+// Called from: the loop. Reads what the board sent within timeout_ms and takes in clock
+// replies and errors. False when the link failed.
+bool Player::read_replies(int timeout_ms) {
+  uint8_t buf[512];
+  long n = -1;
+  try {
+    n = board_->link().read(buf, sizeof buf, timeout_ms);
+  } catch (const std::exception &) {
+  }
+  if (n < 0) {
+    board_lost_ = true;
+    return false;
+  }
+  const uint64_t now = monotonic_us();
+  for (long i = 0; i < n; ++i) {
+    if (decoder_.push(buf[i]) != sc::kFrameOk) continue;
+    const uint8_t *p = decoder_.payload();
+    const uint8_t len = decoder_.payload_len();
+    if (p[0] == sc::kMsgClock && len >= 6) {
+      const uint64_t sent = clock_sent_us_[p[1]];
+      if (sent == 0 || now - sent > 1000000) continue;  // not ours, or from long ago
+      clock_sent_us_[p[1]] = 0;
+      if (!sync_.add(sent, now, sc::get_u32(&p[2]))) {
+        board_restarted_ = true;  // its clock started again: a reset
+        continue;
+      }
+      ++stats_.clock_samples;
+      stats_.ppm = sync_.ppm();
+      stats_.residual_us = sync_.residual_us();
+    } else if (p[0] == sc::kMsgError && len >= 4) {
+      stats_.last_error = p[1];
+      if (p[1] == sc::kErrLate)
+        ++stats_.late_reported;
+      else if (p[1] == sc::kErrQueueFull)
+        ++stats_.queue_full;
+      else if (p[1] != sc::kErrWatchdog)
+        ++stats_.other_errors;
+    }
+  }
+  return true;
+}
+
+// Called from: run and reconnect. Clock round trips every 10 ms for `seconds` (at least 20),
+// so the first notes already have a fitted offset (and, after a second, a rate).
+bool Player::sync_clock(double seconds, const std::atomic<bool> &stop) {
+  const uint64_t start = monotonic_us();
+  const uint64_t step_us = opt_.board_time ? 1000 : 10000;
+  const uint64_t first = stats_.clock_samples;
+  for (int i = 0; !stop.load(); ++i) {
+    const uint64_t now = monotonic_us();
+    if (now - start >= seconds * 1e6 && stats_.clock_samples - first >= 20) return true;
+    if (now - start > 5e6 + seconds * 1e6) {
+      error_ = board_->link().name() + ": the board does not answer clock requests";
+      return false;
+    }
+    send_clock_request(now);
+    const uint64_t until = now + step_us;
+    while (monotonic_us() < until)
+      if (!read_replies(1)) return false;
+    (void)i;
+  }
+  return false;
+}
+
+double Player::event_ticks(double score_s) const {
+  return opt_.board_time ? t0_ticks_ + score_s * caps_.f_cpu_hz : sync_.ticks_at(t0_us_ + score_s * 1e6);
+}
+
+double Player::score_now(uint64_t now_us) const {
+  if (opt_.board_time) return (sync_.ticks_at(static_cast<double>(now_us)) - t0_ticks_) / caps_.f_cpu_hz;
+  return (static_cast<double>(now_us) - t0_us_) / 1e6;
+}
+
+// The period of a pitch on this board: from its measured clock rate (auto-tune), so the note
+// sounds right in real time even when its crystal is off.
+uint32_t Player::period_for(double pitch) const {
+  const double rate = opt_.auto_tune && !opt_.board_time ? sync_.ticks_per_s() : caps_.f_cpu_hz;
+  const double hz = note_hz(pitch, opt_.a4_hz);
+  uint32_t period = hz_to_period_q8(hz, rate);
+  if (period != sc::kPeriodSilent && period < sc::kPeriodQ8Min) period = sc::kPeriodQ8Min;
+  return period;
+}
+
+// Called from: the loop. Sends every event due within the lead, as far as the board's queue
+// has room: one `at` frame per group of events at the same time. False when the link failed.
+bool Player::send_due(uint64_t now_us) {
+  const double now_ticks = sync_.ticks_at(static_cast<double>(now_us));
+  const double free_ticks = kQueueFreeAfterS * caps_.f_cpu_hz;
+  while (!queued_ticks_.empty() && queued_ticks_.front() + free_ticks < now_ticks) queued_ticks_.pop_front();
+  const double lead_ticks = opt_.lead_s * caps_.f_cpu_hz;
+  const size_t capacity = caps_.queue_size > kQueueSpare ? caps_.queue_size - kQueueSpare : 1;
+  const size_t per_frame = (sc::kMaxPayload - 5) / sc::kSetPeriodBytes;
+  while (cursor_ < events_.size()) {
+    const double score = loop_ * duration_s_ + events_[cursor_].time_s;
+    const double ticks = event_ticks(score);
+    if (ticks - now_ticks > lead_ticks) break;
+    // The group: events at the same time (one frame holds per_frame of them).
+    size_t end = cursor_;
+    while (end < events_.size() && end - cursor_ < per_frame && events_[end].time_s == events_[cursor_].time_s) ++end;
+    if (queued_ticks_.size() + (end - cursor_) > capacity) break;
+    const uint32_t at = static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks)));
+    std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
+    sc::put_u32(&payload[1], at);
+    std::vector<sc::PeriodEntry> entries;
+    for (size_t i = cursor_; i < end; ++i)
+      entries.push_back({opt_.motors[events_[i].motor], events_[i].silent ? sc::kPeriodSilent : period_for(events_[i].pitch)});
+    const std::vector<uint8_t> body = periods_payload(entries);
+    payload.insert(payload.end(), body.begin(), body.end());
+    if (!send_payload(payload)) return false;
+    stats_.entries_sent += entries.size();
+    stats_.min_lead_ms = std::min(stats_.min_lead_ms, (ticks - now_ticks) / caps_.f_cpu_hz * 1e3);
+    for (size_t i = cursor_; i < end; ++i) queued_ticks_.push_back(ticks);
+    cursor_ = end;
+    if (cursor_ == events_.size() && opt_.loop) {
+      cursor_ = 0;
+      ++loop_;
+    }
+  }
+  return true;
+}
+
+// Called from: resume and reconnect. Every motor that should sound at score_s starts at the
+// board time of score_s; the events from there on follow.
+bool Player::restore_at(double score_s) {
+  const double in_loop = opt_.loop ? std::fmod(std::max(score_s, 0.0), duration_s_) : score_s;
+  loop_ = opt_.loop ? static_cast<unsigned>(std::floor(std::max(score_s, 0.0) / duration_s_)) : 0;
+  std::vector<double> pitch(opt_.motors.size(), -1);
+  cursor_ = 0;
+  while (cursor_ < events_.size() && events_[cursor_].time_s <= in_loop) {
+    pitch[events_[cursor_].motor] = events_[cursor_].silent ? -1 : events_[cursor_].pitch;
+    ++cursor_;
+  }
+  std::vector<sc::PeriodEntry> entries;
+  for (size_t m = 0; m < pitch.size(); ++m)
+    if (pitch[m] >= 0) entries.push_back({opt_.motors[m], period_for(pitch[m])});
+  if (entries.empty()) return true;
+  const double ticks = event_ticks(score_s);
+  std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
+  sc::put_u32(&payload[1], static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks))));
+  const std::vector<uint8_t> body = periods_payload(entries);
+  payload.insert(payload.end(), body.begin(), body.end());
+  if (!send_payload(payload)) return false;
+  stats_.entries_sent += entries.size();
+  for (size_t i = 0; i < entries.size(); ++i) queued_ticks_.push_back(ticks);
+  return true;
+}
+
+// Called from: run, at the end, on pause and on stop. Every motor silent now, the board's
+// queue emptied, the drivers off.
+void Player::silence() {
+  std::vector<sc::PeriodEntry> entries;
+  for (uint8_t m : opt_.motors) entries.push_back({m, sc::kPeriodSilent});
+  send_payload(periods_payload(entries));
+  send_payload({sc::kMsgStopAll});
+  queued_ticks_.clear();
+}
+
+// Called from: run when the board was lost (link failed) or restarted (its clock began
+// again). Opens it again (retrying up to reconnect_s), says hello, syncs the clock and carries
+// on where the song is now: what should sound is restored at once. False when it cannot.
+bool Player::reconnect(const std::atomic<bool> &stop) {
+  const uint64_t start = monotonic_us();
+  for (;;) {
+    if (stop.load()) return false;
+    try {
+      if (board_lost_) {
+        if (!opener_) throw std::runtime_error("cannot be opened again");
+        board_ = std::make_unique<Board>(opener_());
+      }
+      const Caps caps = board_->hello();
+      if (caps.motor_count != caps_.motor_count || caps.f_cpu_hz != caps_.f_cpu_hz)
+        throw std::runtime_error("a different board answered");
+      break;
+    } catch (const std::exception &e) {
+      if (monotonic_us() - start > opt_.reconnect_s * 1e6) {
+        error_ = "the board was lost and did not come back within " + std::to_string(static_cast<int>(opt_.reconnect_s)) +
+                 " s (" + e.what() + ")";
+        return false;
+      }
+      board_lost_ = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  }
+  board_lost_ = board_restarted_ = false;
+  decoder_ = sc::FrameDecoder();
+  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
+  send_payload({wd, wd + 3});
+  sync_.reset();
+  queued_ticks_.clear();
+  if (!sync_clock(0.2, stop)) return false;
+  ++stats_.reconnects;
+  return restore_at(score_now(monotonic_us()) + opt_.lead_s);
+}
+
+bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
+                 const std::function<void(const PlayerProgress &)> &on_progress) {
+  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
+  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
+  send_payload({wd, wd + 3});
+  if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, stop)) {
+    silence();
+    return stop.load();
+  }
+  const uint64_t begin = monotonic_us();
+  t0_us_ = begin + opt_.lead_s * 1e6;
+  t0_ticks_ = sync_.ticks_at(static_cast<double>(begin)) + opt_.lead_s * caps_.f_cpu_hz;
+  const double clock_every_us = (opt_.board_time ? kBoardTimeClockEveryS : opt_.clock_every_s) * 1e6;
+  bool paused = false;
+  double paused_at = 0;
+  uint64_t last_progress = 0;
+  PlayerProgress progress;
+  progress.duration_s = duration_s_;
+  progress.stats = &stats_;
+  for (;;) {
+    if (stop.load()) break;
+    if ((board_lost_ || board_restarted_) && !reconnect(stop)) {
+      silence();
+      return false;
+    }
+    uint64_t now = monotonic_us();
+    if (pause.load() != paused) {
+      paused = !paused;
+      if (paused) {
+        paused_at = score_now(now);
+        silence();
+      } else {  // carry on where it paused, one lead from now
+        t0_us_ = now + opt_.lead_s * 1e6 - paused_at * 1e6;
+        t0_ticks_ = sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * caps_.f_cpu_hz - paused_at * caps_.f_cpu_hz;
+        if (!restore_at(paused_at)) continue;
+      }
+    }
+    if (now - last_clock_us_ >= clock_every_us) send_clock_request(now);
+    if (!paused && !send_due(now)) continue;
+    if (!read_replies(1)) continue;
+    now = monotonic_us();
+    const double pos = paused ? paused_at : score_now(now);
+    if (now - last_progress >= 100000 && on_progress) {
+      last_progress = now;
+      progress.position_s = opt_.loop ? std::fmod(std::max(pos, 0.0), duration_s_) : std::max(0.0, std::min(pos, duration_s_));
+      progress.loop = opt_.loop ? static_cast<unsigned>(std::max(pos, 0.0) / duration_s_) : 0;
+      progress.paused = paused;
+      on_progress(progress);
+    }
+    // The end: every event sent and the last one played.
+    if (!opt_.loop && cursor_ == events_.size() && pos > duration_s_ + kQueueFreeAfterS) break;
+  }
+  // Let replies to the last entries come in, then silence everything.
+  read_replies(5);
+  silence();
+  read_replies(20);
+  try {
+    if (const auto st = board_->status(500)) {
+      stats_.board_frames_bad = st->head.frames_bad;
+      stats_.board_overruns = st->head.uart_overruns;
+      stats_.board_last_error = st->head.last_error;
+    }
+  } catch (const std::exception &) {
+  }
+  if (on_progress) {
+    progress.position_s = duration_s_;
+    on_progress(progress);
+  }
+  return true;
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,128 @@
+// player.h: plays a planned song on one board from the board's own queue: clock sync,
+// timestamped `at` frames sent ahead, pitch corrected for the board's measured clock rate,
+// pause/resume, loop, and carrying on after a board reset or a replugged cable.
+//
+// Timeline: the song's time s plays at host time t0 + s (real time), which the clock fit
+// turns into the board's ticks; each entry goes out lead_s before its time, as far as the
+// board's queue (Caps::queue_size entries) has room. The host's own scheduling jitter only
+// moves when a frame is sent, never when the note starts: the board starts it on its timer.
+// In board-time mode (render, a virtual board simulated as fast as it runs) the song's time
+// maps straight onto the board's ticks at its nominal rate instead.
+//
+// Called from: the play, render and jam commands; one thread (the caller's) runs everything.
+// It reads replies with short timeouts between sends; nothing here is on a real-time path
+// (the board's queue is the real-time part).
+#ifndef STEPCHOIR_HOST_PLAYER_PLAYER_H
+#define STEPCHOIR_HOST_PLAYER_PLAYER_H
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "board.h"
+#include "live.h"
+#include "player/clock_sync.h"
+#include "player/plan.h"
+
+namespace stepchoir {
+
+struct PlayerOptions {
+  bool board_time = false;       // render: the board's ticks are the timeline
+  double lead_s = 0.3;           // entries go to the board this long before their time
+  double sync_s = 1.0;           // clock round trips before the first note (real time)
+  double clock_every_s = 0.1;    // a clock round trip this often while playing
+  bool loop = false;             // start again at the end, seamlessly
+  double a4_hz = kA4Hz;
+  bool auto_tune = true;         // periods from the measured clock rate (else F_CPU)
+  double reconnect_s = 30;       // a lost board is retried this long (0: give up at once)
+  std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
+};
+
+// What the player did, for the progress line, the final report and tests.
+struct PlayerStats {
+  uint64_t entries_sent = 0, frames_sent = 0;
+  uint64_t late_reported = 0;      // kErrLate replies: an entry came after its time
+  uint64_t queue_full = 0;         // kErrQueueFull replies
+  uint64_t other_errors = 0;
+  uint8_t last_error = 0;
+  uint64_t clock_samples = 0;
+  uint64_t reconnects = 0;         // board lost (cable, reset) and found again
+  double min_lead_ms = 1e9;        // the least time ahead of its start an entry was sent
+  double ppm = 0;                  // the board's crystal error, estimated
+  double residual_us = 0;          // the clock fit's RMS error
+  // The board's own counters at the end (status reply; -1: none came).
+  long board_frames_bad = -1, board_overruns = -1;
+  uint8_t board_last_error = 0;
+};
+
+struct PlayerProgress {
+  double position_s = 0, duration_s = 0;
+  unsigned loop = 0;
+  bool paused = false;
+  const PlayerStats *stats = nullptr;
+};
+
+// Opens the board again after it was lost (the same path); throws when it is not there yet.
+using LinkOpener = std::function<std::unique_ptr<Link>()>;
+
+class Player {
+ public:
+  // events: plan_events() of the plan; duration_s: the plan's. The board must have said hello
+  // (caps). opener may be empty (no reconnection).
+  Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanEvent> events, double duration_s,
+         const PlayerOptions &options, LinkOpener opener = {});
+
+  // Plays to the end (or forever with loop) unless *stop is set; *pause pauses (every motor
+  // silent, the board's queue emptied) and resumes where it was. on_progress is called about
+  // every 100 ms. Leaves every motor silent and the drivers off. Returns false when the board
+  // was lost for good (the reason in error()).
+  bool run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
+           const std::function<void(const PlayerProgress &)> &on_progress);
+
+  const PlayerStats &stats() const { return stats_; }
+  const std::string &error() const { return error_; }
+  const ClockSync &clock() const { return sync_; }
+
+ private:
+  bool send_payload(const std::vector<uint8_t> &payload);
+  void send_clock_request(uint64_t now_us);
+  bool read_replies(int timeout_ms);
+  bool sync_clock(double seconds, const std::atomic<bool> &stop);
+  double event_ticks(double score_s) const;  // unwrapped board ticks of a song time
+  double score_now(uint64_t now_us) const;   // the song time now (may be before 0)
+  uint32_t period_for(double pitch) const;
+  bool send_due(uint64_t now_us);
+  bool restore_at(double score_s);           // entries for what sounds at score_s, at its time
+  bool reconnect(const std::atomic<bool> &stop);
+  void silence();
+
+  std::unique_ptr<Board> board_;
+  Caps caps_;
+  std::vector<PlanEvent> events_;
+  double duration_s_;
+  PlayerOptions opt_;
+  LinkOpener opener_;
+  ClockSync sync_;
+  PlayerStats stats_;
+  std::string error_;
+  sc::FrameDecoder decoder_;
+  LinkBudget budget_;
+  uint64_t clock_sent_us_[256] = {};
+  uint8_t clock_seq_ = 0;
+  uint64_t last_clock_us_ = 0;
+  bool board_lost_ = false, board_restarted_ = false;
+  // Timeline: song time s (in loop k: k * duration + s) plays at host time t0_us_ + s * 1e6,
+  // or (board time) at board ticks t0_ticks_ + s * F_CPU.
+  double t0_us_ = 0, t0_ticks_ = 0;
+  size_t cursor_ = 0;       // next event to send
+  unsigned loop_ = 0;       // loop of the next event
+  std::deque<double> queued_ticks_;  // entries the board may still hold (their ticks)
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_PLAYER_PLAYER_H

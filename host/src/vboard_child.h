@@ -1,0 +1,37 @@
+// vboard_child.h: the virtual board (stepchoir-vboard, beside this program) as a child
+// process, for commands run without a --port.
+#ifndef STEPCHOIR_HOST_VBOARD_CHILD_H
+#define STEPCHOIR_HOST_VBOARD_CHILD_H
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace stepchoir {
+
+// The virtual board as a child process, for `live`, `play` and `jam` without --port, and
+// `render`. Stopped (SIGTERM) when destroyed.
+class VirtualBoard {
+ public:
+  // Called from: the commands. Starts <dir of this program>/stepchoir-vboard on link_path (with
+  // a trace when trace_path is not empty, and extra_args) and waits until the link exists; throws
+  // std::runtime_error when it cannot.
+  VirtualBoard(const std::string &board, const std::string &link_path, const std::string &trace_path,
+               const std::vector<std::string> &extra_args);
+  // Called from: the command's end. Stops it (SIGTERM: it writes its trace out) and waits.
+  ~VirtualBoard();
+  // Stops it now and waits for it to exit; its trace is complete afterwards. Idempotent.
+  void stop();
+  VirtualBoard(const VirtualBoard &) = delete;
+  VirtualBoard &operator=(const VirtualBoard &) = delete;
+  const std::string &path() const { return path_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string path_;
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_VBOARD_CHILD_H

@@ -1,0 +1,229 @@
+// test_player.cpp: the song player's pure parts: the clock fit (offset, rate, wrap, outliers,
+// a reset) and the look-ahead planner (lines kept on motors, stealing, restrikes, selection).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "player/clock_sync.h"
+#include "player/plan.h"
+
+using namespace stepchoir;
+
+namespace {
+
+// A simulated board clock: ticks at host time t_us for a crystal ppm off, starting at start.
+struct FakeBoard {
+  double ppm = 0, start_ticks = 0;
+  uint32_t ticks_at(double t_us) const {
+    const double t = start_ticks + t_us * 16.0 * (1 + ppm / 1e6);
+    return static_cast<uint32_t>(static_cast<uint64_t>(std::llround(t)) & 0xffffffffu);
+  }
+};
+
+// Feeds n round trips every step_us, with round trips of rtt_us plus random extra delay on
+// the way back (up to jitter_us); the board stamps at the true midpoint of the fixed part.
+void feed(ClockSync &sync, const FakeBoard &b, double from_us, int n, double step_us, double rtt_us, double jitter_us,
+          std::mt19937 &rng) {
+  std::uniform_real_distribution<double> extra(0, jitter_us);
+  for (int i = 0; i < n; ++i) {
+    const double send = from_us + i * step_us;
+    const double stamp = send + rtt_us / 2;
+    const double recv = send + rtt_us + extra(rng);
+    REQUIRE(sync.add(static_cast<uint64_t>(send), static_cast<uint64_t>(recv), b.ticks_at(stamp)));
+  }
+}
+
+// Song with the given notes (onset, duration, note, track).
+Song song_of(std::initializer_list<SongNote> notes) {
+  Song s;
+  s.notes = notes;
+  finish_song(s, 0);
+  return s;
+}
+
+SongNote note(double on, double dur, int midi, int track = 0, int channel = 0) {
+  SongNote n;
+  n.onset_s = on;
+  n.duration_s = dur;
+  n.midi_note = static_cast<uint8_t>(midi);
+  n.velocity = 100;
+  n.track = static_cast<uint16_t>(track);
+  n.channel = static_cast<uint8_t>(channel);
+  return n;
+}
+
+PlanOptions motors(size_t n) {
+  PlanOptions o;
+  o.motors.assign(n, MotorConfig{});
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("clock: the fit finds a crystal's error and the board's time through host jitter", "[player]") {
+  std::mt19937 rng(7);
+  for (double ppm : {-5000.0, -120.0, 0.0, 5000.0}) {
+    ClockSync sync(16e6);
+    const FakeBoard b{ppm, 123456789};
+    feed(sync, b, 1e6, 300, 10000, 300, 800, rng);  // 3 s of round trips, up to 0.8 ms extra
+    CHECK(sync.ppm() == Approx(ppm).margin(30.0));  // 30 ppm = 0.05 cent
+    // The board's time now, and a lead ahead, within 40 us (the replies' extra delay is one
+    // way only: the fastest tenth of the round trips still carries up to 80 us of it).
+    for (double at : {4e6, 4.3e6}) {
+      const double want = 123456789 + at * 16.0 * (1 + ppm / 1e6);
+      CHECK(std::fabs(sync.ticks_at(at) - want) / 16.0 < 40.0);
+      CHECK(sync.host_us_at(want) == Approx(at).margin(40.0));
+    }
+  }
+}
+
+TEST_CASE("clock: before a second of samples the rate stays nominal; the offset is fitted", "[player]") {
+  std::mt19937 rng(1);
+  ClockSync sync(16e6);
+  const FakeBoard b{3000, 5};
+  feed(sync, b, 0, 20, 10000, 200, 0, rng);  // 0.2 s
+  CHECK(sync.ticks_per_s() == 16e6);
+  CHECK(std::fabs(sync.ticks_at(0.1e6) - (5 + 0.1e6 * 16 * 1.003)) / 16 < 400);  // 3000 ppm of 0.1 s
+}
+
+TEST_CASE("clock: the 32-bit counter wraps and the fit carries on", "[player]") {
+  std::mt19937 rng(3);
+  ClockSync sync(16e6);
+  const FakeBoard b{0, 4294967296.0 - 16e6};  // wraps one second in
+  feed(sync, b, 0, 300, 10000, 200, 100, rng);
+  const double want = 4294967296.0 - 16e6 + 3e6 * 16;  // unwrapped, past the wrap
+  CHECK(std::fabs(sync.ticks_at(3e6) - want) / 16 < 40);
+  CHECK(sync.ppm() == Approx(0).margin(30));
+}
+
+TEST_CASE("clock: one odd sample is ignored, two in a row mean a new board", "[player]") {
+  std::mt19937 rng(3);
+  ClockSync sync(16e6);
+  const FakeBoard b{0, 1000};
+  feed(sync, b, 0, 50, 10000, 200, 0, rng);
+  const double before = sync.ticks_at(0.6e6);
+  CHECK(sync.add(500000, 500200, 77));  // far off: ignored
+  CHECK(sync.ticks_at(0.6e6) == Approx(before));
+  CHECK(sync.add(510000, 510200, b.ticks_at(510100)));  // back on the line: fine
+  CHECK(sync.add(520000, 520200, 77));
+  CHECK_FALSE(sync.add(530000, 530200, 99));  // twice: the board restarted
+  sync.reset();
+  CHECK_FALSE(sync.ready());
+  CHECK(sync.add(540000, 540200, 99));
+}
+
+TEST_CASE("clock: slow round trips do not pull the fit", "[player]") {
+  std::mt19937 rng(5);
+  ClockSync sync(16e6);
+  const FakeBoard b{0, 0};
+  // Every third reply comes 5 ms late (a loaded host): the fit keeps to the fast ones.
+  for (int i = 0; i < 300; ++i) {
+    const double send = i * 10000.0;
+    const double recv = send + 200 + (i % 3 == 0 ? 5000 : 0);
+    REQUIRE(sync.add(static_cast<uint64_t>(send), static_cast<uint64_t>(recv), b.ticks_at(send + 100)));
+  }
+  CHECK(std::fabs(sync.ticks_at(3e6) - 3e6 * 16) / 16 < 5);
+  CHECK(sync.residual_us() < 5);
+}
+
+TEST_CASE("plan: a melodic line stays on its motor; another line takes another", "[player]") {
+  // Line A: four notes legato on track 0; line B: two long notes on track 1.
+  const Song s = song_of({note(0, 0.5, 60), note(0.5, 0.5, 62), note(1.0, 0.5, 64), note(1.5, 0.5, 65),
+                          note(0, 1, 48, 1), note(1, 1, 50, 1)});
+  const Plan p = plan_song(s, motors(3));
+  REQUIRE(p.notes.size() == 6);
+  CHECK(p.unplayed.empty());
+  int motor_a = -1, motor_b = -1;
+  for (const PlannedNote &n : p.notes) {
+    int &want = s.notes[n.song_index].track == 0 ? motor_a : motor_b;
+    if (want < 0) want = n.motor;
+    CHECK(int{n.motor} == want);
+  }
+  CHECK(motor_a != motor_b);
+  // Legato on one motor: no silence between the notes of a line.
+  const auto ev = plan_events(p);
+  size_t silences = 0;
+  for (const PlanEvent &e : ev) silences += e.silent;
+  CHECK(silences == 2);  // each line's end only
+}
+
+TEST_CASE("plan: with every motor busy a note is left out and reported, not stolen", "[player]") {
+  const Song s = song_of({note(0, 2, 60), note(0, 2, 64), note(0.5, 1, 67)});
+  const Plan p = plan_song(s, motors(2));
+  CHECK(p.notes.size() == 2);
+  REQUIRE(p.unplayed.size() == 1);
+  CHECK(s.notes[p.unplayed[0].song_index].midi_note == 67);
+  CHECK(p.unplayed[0].why == Unplayed::kNoMotor);
+  CHECK(p.shortened == 0);
+}
+
+TEST_CASE("plan: a note nearly done makes way for a new one (cut short, counted)", "[player]") {
+  const Song s = song_of({note(0, 1, 60), note(0.9, 1, 64)});
+  const Plan p = plan_song(s, motors(1));
+  REQUIRE(p.notes.size() == 2);
+  CHECK(p.shortened == 1);
+  CHECK(p.notes[0].off_s == Approx(0.9));
+  CHECK(p.notes[1].on_s == Approx(0.9));
+}
+
+TEST_CASE("plan: the same note again strikes again after a short gap", "[player]") {
+  const Song s = song_of({note(0, 0.5, 60), note(0.5, 0.5, 60)});
+  const Plan p = plan_song(s, motors(1));
+  REQUIRE(p.notes.size() == 2);
+  CHECK(p.notes[0].off_s == Approx(0.5 - kRestrikeGapS));
+  const auto ev = plan_events(p);
+  REQUIRE(ev.size() == 4);
+  CHECK(ev[1].silent);
+  CHECK(ev[1].time_s == Approx(0.49));
+}
+
+TEST_CASE("plan: selection, tempo, transpose, start position and short notes", "[player]") {
+  const Song s = song_of({note(0, 1, 60, 0, 0), note(1, 1, 62, 0, 0), note(0, 2, 40, 1, 9), note(2, 0.004, 70, 0, 0),
+                          note(2.5, 1, 72, 0, 0)});
+  PlanOptions o = motors(4);
+  o.mute_channels = {9};
+  o.tempo_scale = 2;
+  o.transpose = 12;
+  o.start_s = 0.5;
+  const Plan p = plan_song(s, o);
+  REQUIRE(p.notes.size() == 3);
+  CHECK(p.selected == 4);  // the muted channel's note is not selected
+  CHECK(p.notes[0].on_s == Approx(0));      // cut at the start position
+  CHECK(p.notes[0].off_s == Approx(0.25));  // (1 - 0.5) / 2
+  CHECK(p.notes[0].pitch == Approx(72));
+  CHECK(p.notes[1].on_s == Approx(0.25));
+  CHECK(p.notes[2].on_s == Approx(1.0));    // (2.5 - 0.5) / 2
+  REQUIRE(p.unplayed.size() == 1);
+  CHECK(p.unplayed[0].why == Unplayed::kTooShort);
+  CHECK(p.duration_s == Approx((3.5 - 0.5) / 2));
+  o = motors(4);
+  o.tracks = {1};
+  CHECK(plan_song(s, o).notes.size() == 1);
+  o.tracks = {};
+  o.channels = {9};
+  CHECK(plan_song(s, o).notes.size() == 1);
+}
+
+TEST_CASE("plan: notes outside a motor's range fold into it; no motor at all is an error", "[player]") {
+  PlanOptions o = motors(1);
+  o.motors[0].lowest_note = 48;
+  o.motors[0].highest_note = 72;
+  const Plan p = plan_song(song_of({note(0, 1, 100)}), o);
+  REQUIRE(p.notes.size() == 1);
+  CHECK(p.notes[0].pitch == Approx(64));
+  CHECK_THROWS_AS(plan_song(song_of({note(0, 1, 60)}), PlanOptions{}), std::invalid_argument);
+  o.tempo_scale = 0;
+  CHECK_THROWS_AS(plan_song(song_of({note(0, 1, 60)}), o), std::invalid_argument);
+}
+
+TEST_CASE("plan: a chord sounds on as many motors, and the events of one time stay together", "[player]") {
+  const Song s = song_of({note(0, 1, 60), note(0, 1, 64), note(0, 1, 67)});
+  const Plan p = plan_song(s, motors(5));
+  REQUIRE(p.notes.size() == 3);
+  const auto ev = plan_events(p);
+  REQUIRE(ev.size() == 6);
+  for (size_t i = 0; i < 3; ++i) CHECK_FALSE(ev[i].silent);
+  CHECK(ev[0].motor != ev[1].motor);
+  CHECK(ev[1].motor != ev[2].motor);
+}
