@@ -96,6 +96,9 @@ class ChildProcess {
     return wait();
   }
 
+  // The process id while it runs (for signals a test sends itself), else -1.
+  pid_t pid() const { return pid_; }
+
   // Waits for the exit (status as above).
   int wait() {
     if (pid_ <= 0) return status_;

@@ -20,8 +20,10 @@ bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
   const double predicted = ticks_at(mid);
   const double wrap = 4294967296.0;
   const double ticks = board_ticks + std::round((predicted - board_ticks) / wrap) * wrap;
-  const double off_s = std::fabs(ticks - predicted) / rate_ - rtt / 2e6;
-  if (off_s > reset_jump_s_) {
+  // A board that restarted counts from 0 again: its time goes backwards. (One that only fell
+  // behind for a moment, like a stalled virtual board, still counts forwards: the fit follows.)
+  const double back_s = (samples_.back().ticks - ticks) / rate_ - (rtt + samples_.back().rtt_us) / 1e6;
+  if (back_s > reset_jump_s_) {
     if (++outliers_ >= 2) return false;
     return true;  // one odd sample: wait for the next before calling it a new board
   }
@@ -35,6 +37,7 @@ bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
 void ClockSync::reset() {
   samples_.clear();
   rate_ = nominal_;
+  has_rate_ = false;
   origin_us_ = offset_ticks_ = residual_us_ = 0;
   outliers_ = 0;
 }
@@ -45,15 +48,15 @@ double ClockSync::min_rtt_us() const {
   return m;
 }
 
-// Called from: add. Keeps the samples with the shortest round trips (the fastest tenth, or
+// Called from: add. Keeps the samples with the shortest round trips (the fastest quarter, or
 // all within 100 us of the shortest: a delay on one way only moves a midpoint by half of
 // it), then fits ticks = offset + rate * (host - origin).
 void ClockSync::fit() {
   std::vector<double> rtts;
   rtts.reserve(samples_.size());
   for (const Sample &s : samples_) rtts.push_back(s.rtt_us);
-  std::nth_element(rtts.begin(), rtts.begin() + rtts.size() / 10, rtts.end());
-  const double limit = std::max(rtts[rtts.size() / 10], min_rtt_us() + 100.0);
+  std::nth_element(rtts.begin(), rtts.begin() + rtts.size() / 4, rtts.end());
+  const double limit = std::max(rtts[rtts.size() / 4], min_rtt_us() + 100.0);
   double n = 0, sum_h = 0, sum_t = 0, first = 0, last = 0;
   for (const Sample &s : samples_) {
     if (s.rtt_us > limit) continue;
@@ -71,7 +74,10 @@ void ClockSync::fit() {
       sxx += (s.host_us - mean_h) * (s.host_us - mean_h);
       sxy += (s.host_us - mean_h) * (s.ticks - mean_t);
     }
-    if (sxx > 0) rate_ = sxy / sxx * 1e6;
+    if (sxx > 0) {
+      rate_ = sxy / sxx * 1e6;
+      has_rate_ = true;
+    }
   }
   origin_us_ = mean_h;
   offset_ticks_ = mean_t;

@@ -20,16 +20,16 @@ namespace stepchoir {
 
 class ClockSync {
  public:
-  static constexpr size_t kWindow = 200;          // samples kept (20 s at the player's 10 a second)
+  static constexpr size_t kWindow = 500;          // samples kept (10 s at the player's 50 a second)
   static constexpr double kMinRateSpanS = 1.0;    // span of samples before the rate is fitted
-  static constexpr double kResetJumpS = 0.05;     // a sample this far off the line: a new board
+  static constexpr double kResetJumpS = 0.05;     // the board's time this far back: a new board
 
   // nominal_ticks_per_s: the board's F_CPU (its tick rate if its crystal were exact).
   explicit ClockSync(double nominal_ticks_per_s) : nominal_(nominal_ticks_per_s), rate_(nominal_ticks_per_s) {}
 
   // Called from: the player thread, for each clock reply. Host times in us (monotonic_us).
-  // Returns false (and keeps nothing) when the sample is further than kResetJumpS off the
-  // estimate twice in a row: the board's clock restarted (a reset), the caller resets.
+  // Returns false (and keeps nothing) when the board's time went back by more than
+  // kResetJumpS twice in a row: its clock restarted (a reset), the caller resets.
   bool add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks);
 
   // Forgets every sample (a new board). Called from: the player.
@@ -37,7 +37,7 @@ class ClockSync {
   // Keeps the last `samples` only and fits a rate once they span min_rate_span_s (a board
   // simulated as fast as it runs changes speed: a short window follows it). Called from: the
   // player, before the first sample.
-  // reset_jump_s: how far off a sample must be to mean a new board (kResetJumpS).
+  // reset_jump_s: how far back the board's time must go to mean a new board (kResetJumpS).
   void set_window(size_t samples, double min_rate_span_s, double reset_jump_s) {
     window_ = samples < 3 ? 3 : samples;
     min_rate_span_s_ = min_rate_span_s;
@@ -52,6 +52,8 @@ class ClockSync {
   double ticks_at(double host_us) const { return offset_ticks_ + (host_us - origin_us_) * rate_ / 1e6; }
   // The host time (us) at which the board's unwrapped tick count reaches ticks.
   double host_us_at(double ticks) const { return origin_us_ + (ticks - offset_ticks_) * 1e6 / rate_; }
+  // True once the rate is fitted (samples spanning min_rate_span_s).
+  bool has_rate() const { return has_rate_; }
   // The board's ticks per real second, estimated (nominal until kMinRateSpanS of samples).
   double ticks_per_s() const { return rate_; }
   // The board's crystal error in parts per million, estimated.
@@ -74,6 +76,7 @@ class ClockSync {
   double residual_us_ = 0;
   std::deque<Sample> samples_;
   int outliers_ = 0;
+  bool has_rate_ = false;
   size_t window_ = kWindow;
   double min_rate_span_s_ = kMinRateSpanS;
   double reset_jump_s_ = kResetJumpS;

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 #include <thread>
 
@@ -23,6 +25,12 @@ constexpr double kQueueFreeAfterS = 0.002;
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;
 constexpr size_t kBoardTimeWindow = 16;
+// The timeline follows the clock fit's rate this often, when they differ by this much, by at
+// most kRateMaxStepPpm a time: a crystal drifts by a few ppm over minutes, while a round-trip
+// hiccup or a stalled virtual board can swing the fit far more for a moment.
+constexpr double kRateEveryS = 2.0;
+constexpr double kRateStepPpm = 2.0;
+constexpr double kRateMaxStepPpm = 10.0;
 
 }  // namespace
 
@@ -42,6 +50,9 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
     if (e.motor >= opt_.motors.size() || opt_.motors[e.motor] >= caps_.motor_count)
       throw std::invalid_argument("player: the plan uses motor " + std::to_string(e.motor) + ", the board has " +
                                   std::to_string(caps_.motor_count));
+  // STEPCHOIR_PLAYER_CLOCK_LOG=FILE: every clock round trip (send us, receive us, board ticks),
+  // for studying the clock fit.
+  if (const char *log = std::getenv("STEPCHOIR_PLAYER_CLOCK_LOG")) clock_log_ = std::fopen(log, "w");
   if (opt_.loop && !(duration_s_ > 0)) throw std::invalid_argument("player: an empty song cannot loop");
   // A board simulated as fast as it runs changes speed all the time, and is this program's
   // own child: no sample there means a reset.
@@ -101,6 +112,8 @@ bool Player::read_replies(int timeout_ms) {
       const uint64_t sent = clock_sent_us_[p[1]];
       if (sent == 0 || now - sent > 1000000) continue;  // not ours, or from long ago
       clock_sent_us_[p[1]] = 0;
+      if (clock_log_) std::fprintf(clock_log_, "%llu,%llu,%u\n", static_cast<unsigned long long>(sent),
+                                   static_cast<unsigned long long>(now), sc::get_u32(&p[2]));
       if (!sync_.add(sent, now, sc::get_u32(&p[2]))) {
         board_restarted_ = true;  // its clock started again: a reset
         continue;
@@ -122,14 +135,17 @@ bool Player::read_replies(int timeout_ms) {
 }
 
 // Called from: run and reconnect. Clock round trips every 10 ms for `seconds` (at least 20),
-// so the first notes already have a fitted offset (and, after a second, a rate).
-bool Player::sync_clock(double seconds, const std::atomic<bool> &stop) {
+// so the first notes already have a fitted offset, and, with need_rate, until the fit has a
+// rate (a second of samples).
+bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
   const uint64_t step_us = opt_.board_time ? 1000 : 10000;
   const uint64_t first = stats_.clock_samples;
   for (int i = 0; !stop.load(); ++i) {
     const uint64_t now = monotonic_us();
-    if (now - start >= seconds * 1e6 && stats_.clock_samples - first >= 20) return true;
+    if (now - start >= seconds * 1e6 && stats_.clock_samples - first >= 20 &&
+        (!need_rate || opt_.board_time || sync_.has_rate()))
+      return true;
     if (now - start > 5e6 + seconds * 1e6) {
       error_ = board_->link().name() + ": the board does not answer clock requests";
       return false;
@@ -143,21 +159,41 @@ bool Player::sync_clock(double seconds, const std::atomic<bool> &stop) {
   return false;
 }
 
-double Player::event_ticks(double score_s) const {
-  return opt_.board_time ? t0_ticks_ + score_s * caps_.f_cpu_hz : sync_.ticks_at(t0_us_ + score_s * 1e6);
-}
+double Player::event_ticks(double score_s) const { return anchor_ticks_ + (score_s - anchor_s_) * rate_; }
 
 double Player::score_now(uint64_t now_us) const {
-  if (opt_.board_time) return (sync_.ticks_at(static_cast<double>(now_us)) - t0_ticks_) / caps_.f_cpu_hz;
-  return (static_cast<double>(now_us) - t0_us_) / 1e6;
+  return anchor_s_ + (sync_.ticks_at(static_cast<double>(now_us)) - anchor_ticks_) / rate_;
+}
+
+// Called from: run (start, resume) and reconnect. Song time score_s plays at board ticks
+// `ticks`, at the fit's rate (nominal in board-time mode).
+void Player::anchor(double score_s, double ticks, uint64_t now_us) {
+  anchor_s_ = score_s;
+  anchor_ticks_ = ticks;
+  rate_ = opt_.board_time || !opt_.auto_tune ? caps_.f_cpu_hz : sync_.ticks_per_s();
+  anchored_us_ = now_us;
+  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
+}
+
+// Called from: the loop. Every kRateEveryS, when the fit's rate differs from the timeline's by
+// more than kRateStepPpm, the timeline takes it from the song's current position on.
+void Player::follow_rate(uint64_t now_us) {
+  if (opt_.board_time || !opt_.auto_tune || now_us - anchored_us_ < kRateEveryS * 1e6) return;
+  anchored_us_ = now_us;
+  const double diff_ppm = (sync_.ticks_per_s() / rate_ - 1.0) * 1e6;
+  if (std::fabs(diff_ppm) < kRateStepPpm) return;
+  const double s = score_now(now_us);
+  anchor_ticks_ = event_ticks(s);
+  anchor_s_ = s;
+  rate_ *= 1.0 + std::max(-kRateMaxStepPpm, std::min(kRateMaxStepPpm, diff_ppm)) / 1e6;
+  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
 // The period of a pitch on this board: from its measured clock rate (auto-tune), so the note
 // sounds right in real time even when its crystal is off.
 uint32_t Player::period_for(double pitch) const {
-  const double rate = opt_.auto_tune && !opt_.board_time ? sync_.ticks_per_s() : caps_.f_cpu_hz;
   const double hz = note_hz(pitch, opt_.a4_hz);
-  uint32_t period = hz_to_period_q8(hz, rate);
+  uint32_t period = hz_to_period_q8(hz, rate_);
   if (period != sc::kPeriodSilent && period < sc::kPeriodQ8Min) period = sc::kPeriodQ8Min;
   return period;
 }
@@ -241,6 +277,7 @@ void Player::silence() {
 // on where the song is now: what should sound is restored at once. False when it cannot.
 bool Player::reconnect(const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
+  const double lost_at_s = score_now(start);  // the old board's clock, as last fitted
   for (;;) {
     if (stop.load()) return false;
     try {
@@ -269,9 +306,16 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   send_payload({wd, wd + 3});
   sync_.reset();
   queued_ticks_.clear();
-  if (!sync_clock(0.2, stop)) return false;
+  if (!sync_clock(0.2, false, stop)) return false;
   ++stats_.reconnects;
-  return restore_at(score_now(monotonic_us()) + opt_.lead_s);
+  const uint64_t now = monotonic_us();
+  const double at_s = lost_at_s + (now - start) / 1e6 + opt_.lead_s;  // the song went on meanwhile
+  // The same board back (same capabilities): same crystal, so the rate measured so far stays;
+  // the new fit only sets the offset.
+  const double rate = rate_;
+  anchor(at_s, sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate, now);
+  rate_ = rate;
+  return restore_at(at_s);
 }
 
 bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
@@ -279,13 +323,13 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
   sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
   send_payload({wd, wd + 3});
-  if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, stop)) {
+  if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, true, stop)) {
     silence();
     return stop.load();
   }
   const uint64_t begin = monotonic_us();
-  t0_us_ = begin + opt_.lead_s * 1e6;
-  t0_ticks_ = sync_.ticks_at(static_cast<double>(begin)) + opt_.lead_s * caps_.f_cpu_hz;
+  anchor(0.0, 0.0, begin);
+  anchor_ticks_ = sync_.ticks_at(static_cast<double>(begin)) + opt_.lead_s * rate_;
   const double clock_every_us = (opt_.board_time ? kBoardTimeClockEveryS : opt_.clock_every_s) * 1e6;
   bool paused = false;
   double paused_at = 0;
@@ -306,12 +350,13 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
         paused_at = score_now(now);
         silence();
       } else {  // carry on where it paused, one lead from now
-        t0_us_ = now + opt_.lead_s * 1e6 - paused_at * 1e6;
-        t0_ticks_ = sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * caps_.f_cpu_hz - paused_at * caps_.f_cpu_hz;
+        anchor(paused_at, 0.0, now);
+        anchor_ticks_ = sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate_;
         if (!restore_at(paused_at)) continue;
       }
     }
     if (now - last_clock_us_ >= clock_every_us) send_clock_request(now);
+    if (!paused) follow_rate(now);
     if (!paused && !send_due(now)) continue;
     if (!read_replies(1)) continue;
     now = monotonic_us();

@@ -2,12 +2,16 @@
 // timestamped `at` frames sent ahead, pitch corrected for the board's measured clock rate,
 // pause/resume, loop, and carrying on after a board reset or a replugged cable.
 //
-// Timeline: the song's time s plays at host time t0 + s (real time), which the clock fit
-// turns into the board's ticks; each entry goes out lead_s before its time, as far as the
-// board's queue (Caps::queue_size entries) has room. The host's own scheduling jitter only
-// moves when a frame is sent, never when the note starts: the board starts it on its timer.
-// In board-time mode (render, a virtual board simulated as fast as it runs) the song's time
-// maps straight onto the board's ticks at its nominal rate instead.
+// Timeline: the board's clock is the song's clock. Song time s plays at board ticks
+// anchor_ticks + (s - anchor_s) * rate, where rate is the board's tick rate per real second
+// as the clock fit measures it (its crystal's error included): the notes keep exact time to
+// one another on the board's timer whatever the host or the link do, and the song runs at
+// its real tempo. When the fit's rate moves (a better estimate, a drifting crystal) the
+// timeline takes the new rate from the current position on, without a jump. Each entry goes
+// out lead_s before its time, as far as the board's queue (Caps::queue_size entries) has
+// room. The host's scheduling jitter only moves when a frame is sent, never when a note
+// starts. In board-time mode (render, a virtual board simulated as fast as it runs) the
+// rate is the nominal F_CPU.
 //
 // Called from: the play, render and jam commands; one thread (the caller's) runs everything.
 // It reads replies with short timeouts between sends; nothing here is on a real-time path
@@ -17,6 +21,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <deque>
 #include <functional>
 #include <memory>
@@ -34,7 +39,7 @@ struct PlayerOptions {
   bool board_time = false;       // render: the board's ticks are the timeline
   double lead_s = 0.3;           // entries go to the board this long before their time
   double sync_s = 1.0;           // clock round trips before the first note (real time)
-  double clock_every_s = 0.1;    // a clock round trip this often while playing
+  double clock_every_s = 0.02;   // a clock round trip this often while playing (6 bytes)
   bool loop = false;             // start again at the end, seamlessly
   double a4_hz = kA4Hz;
   bool auto_tune = true;         // periods from the measured clock rate (else F_CPU)
@@ -52,7 +57,8 @@ struct PlayerStats {
   uint64_t clock_samples = 0;
   uint64_t reconnects = 0;         // board lost (cable, reset) and found again
   double min_lead_ms = 1e9;        // the least time ahead of its start an entry was sent
-  double ppm = 0;                  // the board's crystal error, estimated
+  double ppm = 0;                  // the board's crystal error, as the clock fit has it now
+  double rate_ppm = 0;             // the crystal error the timeline and the pitches use
   double residual_us = 0;          // the clock fit's RMS error
   // The board's own counters at the end (status reply; -1: none came).
   long board_frames_bad = -1, board_overruns = -1;
@@ -86,14 +92,19 @@ class Player {
   const PlayerStats &stats() const { return stats_; }
   const std::string &error() const { return error_; }
   const ClockSync &clock() const { return sync_; }
+  ~Player() {
+    if (clock_log_) std::fclose(clock_log_);
+  }
+  Player(const Player &) = delete;
+  Player &operator=(const Player &) = delete;
 
  private:
   bool send_payload(const std::vector<uint8_t> &payload);
   void send_clock_request(uint64_t now_us);
   bool read_replies(int timeout_ms);
-  bool sync_clock(double seconds, const std::atomic<bool> &stop);
+  bool sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop);
   double event_ticks(double score_s) const;  // unwrapped board ticks of a song time
-  double score_now(uint64_t now_us) const;   // the song time now (may be before 0)
+  double score_now(uint64_t now_us) const;   // the song time now on the board (may be before 0)
   uint32_t period_for(double pitch) const;
   bool send_due(uint64_t now_us);
   bool restore_at(double score_s);           // entries for what sounds at score_s, at its time
@@ -115,12 +126,16 @@ class Player {
   uint8_t clock_seq_ = 0;
   uint64_t last_clock_us_ = 0;
   bool board_lost_ = false, board_restarted_ = false;
-  // Timeline: song time s (in loop k: k * duration + s) plays at host time t0_us_ + s * 1e6,
-  // or (board time) at board ticks t0_ticks_ + s * F_CPU.
-  double t0_us_ = 0, t0_ticks_ = 0;
+  // Timeline (see the top): song time s (in loop k: k * duration + s) plays at board ticks
+  // anchor_ticks_ + (s - anchor_s_) * rate_.
+  double anchor_s_ = 0, anchor_ticks_ = 0, rate_ = 0;
+  uint64_t anchored_us_ = 0;  // when the timeline last took a rate
+  void anchor(double score_s, double ticks, uint64_t now_us);  // sets the timeline
+  void follow_rate(uint64_t now_us);                           // takes the fit's rate, no jump
   size_t cursor_ = 0;       // next event to send
   unsigned loop_ = 0;       // loop of the next event
   std::deque<double> queued_ticks_;  // entries the board may still hold (their ticks)
+  std::FILE *clock_log_ = nullptr;
 };
 
 }  // namespace stepchoir

@@ -1,0 +1,485 @@
+// test_play.cpp: `stepchoir play` and `stepchoir render` end to end: the real binary, the real
+// firmware on the virtual board, and every planned note checked in the board's trace against
+// the song file: onset, release and pitch, in real time (the trace's cycles divided by the
+// simulated crystal's real rate).
+#include <catch2/catch.hpp>
+
+#include <signal.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include "../host/smf_builder.h"
+#include "analysis.h"
+#include "child_process.h"
+#include "e2e_more.h"
+#include "e2e_util.h"
+#include "pitch.h"
+#include "player/plan.h"
+#include "song/song.h"
+#include "trace.h"
+#include "vboard_process.h"
+
+using namespace stepchoir;
+using e2e::scratch;
+
+namespace {
+
+// A format 1 file with a tempo map (120 bpm, then 150 from beat 4), a legato melody with a
+// repeated note (track 1, channel 1), a bass line (track 2, channel 2) and two-note chords
+// (track 3, channel 3). At most four notes at once. Running status in the melody.
+std::string write_test_song(const std::string &name) {
+  const uint16_t ppq = 480;
+  smf::Track tempo;
+  tempo.tempo(0, 500000).tempo(4 * ppq, 400000).end(0);
+  smf::Track melody;
+  const int tune[] = {72, 74, 76, 76, 77, 79, 81, 79, 77, 76, 74, 72, 71, 72, 74, 72};
+  melody.ev(0, {0x90, static_cast<uint8_t>(tune[0]), 100});
+  for (int i = 0; i < 16; ++i) {
+    melody.ev(ppq / 2, {static_cast<uint8_t>(tune[i]), 0});  // running status: note-on velocity 0
+    if (i + 1 < 16) melody.ev(0, {static_cast<uint8_t>(tune[i + 1]), 90});
+  }
+  melody.end(0);
+  smf::Track bass;
+  const int line[] = {48, 43, 45, 41};
+  for (int i = 0; i < 4; ++i)
+    bass.ev(0, {0x91, static_cast<uint8_t>(line[i]), 80}).ev(2 * ppq - 60, {0x81, static_cast<uint8_t>(line[i]), 0})
+        .ev(60, {0xB1, 7, 100});  // a controller between notes: skipped
+  bass.end(0);
+  smf::Track chords;
+  chords.ev(ppq, {0x92, 64, 70}).ev(0, {0x92, 67, 70}).ev(ppq, {0x82, 64, 0}).ev(0, {0x82, 67, 0});
+  chords.ev(3 * ppq, {0x92, 62, 70}).ev(0, {0x92, 65, 70}).ev(ppq, {0x82, 62, 0}).ev(0, {0x82, 65, 0}).end(0);
+  const auto bytes = smf::file(1, ppq, {tempo, melody, bass, chords});
+  const std::string path = scratch(name);
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char *>(bytes.data()),
+                                               static_cast<std::streamsize>(bytes.size()));
+  return path;
+}
+
+// What the trace shows of a plan's notes, in real time.
+struct PlayedCheck {
+  size_t notes = 0, found = 0;
+  std::vector<double> onset_err_us;  // per note: first edge - the song's time on the board's line
+  double tempo_ppm = 0;              // the line's slope: song seconds -> real seconds, - 1
+  double max_release_late_us = 0;    // an edge after a note's end (+: the motor went on)
+  double max_release_early_us = 0;   // end - (last edge + one period) (+: the note stopped early)
+  double max_cents = 0;              // pitch error in real time, worst note
+  double max_spread_cents = 0;       // pitch error against the notes' median error (in tune together)
+  size_t turned = 0;                 // notes during which the motor turned round (no pitch measured)
+  std::string first_problem;
+};
+
+// Least-squares line y = a + b x. Called from: check_played.
+void fit_line(const std::vector<double> &x, const std::vector<double> &y, double *a, double *b) {
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < x.size(); ++i) mx += x[i], my += y[i];
+  mx /= x.size(), my /= y.size();
+  double sxx = 0, sxy = 0;
+  for (size_t i = 0; i < x.size(); ++i) sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
+  *b = sxx > 0 ? sxy / sxx : 1.0;
+  *a = my - *b * mx;
+}
+
+// Checks every planned note against the trace. The song's timeline on the board is the line
+// through the notes' onsets (the board's clock is the song's clock: a constant offset, and a
+// tempo the player took from the measured clock rate); each note must start on it (its first
+// rising edge: a silent motor starts on the time, a sounding one strikes on it), sound at its
+// pitch and stop at its end (no edge after it until the motor's next note).
+PlayedCheck check_played(const sc::trace::Trace &t, const Plan &plan) {
+  PlayedCheck c;
+  c.notes = plan.notes.size();
+  const double f = t.real_f_cpu_hz();
+  auto sec = [&](uint64_t cycle) { return static_cast<double>(cycle) / f; };
+  // Notes that start on a silent motor begin after a gap in its steps: unambiguous. The
+  // offset that lines the most of them up with such starts (within 5 ms) is the rough one;
+  // their onsets near it fix the line.
+  std::vector<size_t> fresh;
+  for (size_t k = 0; k < plan.notes.size(); ++k) {
+    bool silent_before = true;
+    for (size_t q = 0; q < k; ++q)
+      if (plan.notes[q].motor == plan.notes[k].motor && plan.notes[q].off_s > plan.notes[k].on_s - 0.02)
+        silent_before = false;
+    if (silent_before) fresh.push_back(k);
+  }
+  auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
+    std::vector<double> out;
+    const auto &s = t.motor.at(motor).steps;
+    for (size_t i = 0; i < s.size(); ++i)
+      if (i == 0 || sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle) > 0.015) out.push_back(sec(s[i].rise_cycle));
+    return out;
+  };
+  auto start_near = [&](size_t k, double offset, double tolerance, double *at) {
+    for (double x : starts(plan.notes[k].motor))
+      if (std::fabs(x - offset - plan.notes[k].on_s) < tolerance) return *at = x, true;
+    return false;
+  };
+  if (fresh.empty()) {
+    c.first_problem = "no note starts on a silent motor";
+    return c;
+  }
+  double rough = 0;
+  size_t best = 0;
+  for (double x : starts(plan.notes[fresh[0]].motor)) {
+    const double offset = x - plan.notes[fresh[0]].on_s;
+    size_t lined_up = 0;
+    double at;
+    for (size_t k : fresh) lined_up += start_near(k, offset, 0.005, &at);
+    if (lined_up > best) best = lined_up, rough = offset;
+  }
+  std::vector<double> xs, ys;
+  for (size_t k : fresh) {
+    double at;
+    if (start_near(k, rough, 0.005, &at)) xs.push_back(plan.notes[k].on_s), ys.push_back(at);
+  }
+  if (xs.size() < 2) {
+    c.first_problem = "fewer than two notes start on a silent motor";
+    return c;
+  }
+  double a = 0, b = 1;
+  fit_line(xs, ys, &a, &b);
+  // Every note's onset edge on that line, then the line again through all of them.
+  auto onset_edge = [&](const PlannedNote &n) -> long {
+    const auto &s = t.motor.at(n.motor).steps;
+    const double want = a + b * n.on_s - 0.00005;
+    const auto it = std::lower_bound(s.begin(), s.end(), want, [&](const sc::trace::Step &st, double v) {
+      return sec(st.rise_cycle) < v;
+    });
+    return it == s.end() ? -1 : static_cast<long>(it - s.begin());
+  };
+  xs.clear(), ys.clear();
+  for (const PlannedNote &n : plan.notes) {
+    const long i = onset_edge(n);
+    if (i >= 0) xs.push_back(n.on_s), ys.push_back(sec(t.motor[n.motor].steps[static_cast<size_t>(i)].rise_cycle));
+  }
+  fit_line(xs, ys, &a, &b);
+  c.tempo_ppm = (b - 1.0) * 1e6;
+  std::vector<double> cents;
+  for (size_t k = 0; k < plan.notes.size(); ++k) {
+    const PlannedNote &n = plan.notes[k];
+    const auto &s = t.motor[n.motor].steps;
+    const long i = onset_edge(n);
+    if (i < 0) {
+      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps";
+      continue;
+    }
+    auto board = [&](double song_s) { return a + b * song_s; };
+    const double err_us = (sec(s[static_cast<size_t>(i)].rise_cycle) - board(n.on_s)) * 1e6;
+    c.onset_err_us.push_back(err_us);
+    if (std::fabs(err_us) > 100 && c.first_problem.empty())
+      c.first_problem = "note " + std::to_string(k) + " (motor " + std::to_string(n.motor) + ", " +
+                        std::to_string(n.on_s) + " s): onset off by " + std::to_string(err_us) + " us";
+    // The note's edges: up to its end.
+    std::vector<uint64_t> edges;
+    size_t j = static_cast<size_t>(i);
+    for (; j < s.size() && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
+    ++c.found;
+    const double hz = note_hz(n.pitch);
+    const double period_s = 1.0 / hz;
+    // A motor that reaches the end of its travel turns round: the steps around the turn are
+    // no measure of pitch (bounce-back is checked elsewhere).
+    bool turned = false;
+    for (const auto &d : t.motor[n.motor].dir_changes)
+      turned = turned || (d.cycle >= edges.front() && d.cycle <= edges.back());
+    c.turned += turned;
+    if (edges.size() >= 3 && !turned) {
+      const auto fit = sc::trace::fit_edges(edges, f / hz, f);
+      cents.push_back(fit.cents_error);
+      if (std::getenv("STEPCHOIR_TEST_NOTES"))
+        std::printf("note %zu motor %u %.4f-%.4f s pitch %.2f: onset %+.1f us, %zu edges, %+.4f cent\n", k, n.motor,
+                    n.on_s, n.off_s, n.pitch, err_us, edges.size(), fit.cents_error);
+      c.max_cents = std::max(c.max_cents, std::fabs(fit.cents_error));
+    }
+    const double last = sec(edges.back());
+    c.max_release_early_us = std::max(c.max_release_early_us, (board(n.off_s) - (last + period_s)) * 1e6);
+    // The motor's next note (if legato, it starts at this one's end).
+    double next_on = 1e9;
+    for (size_t q = k + 1; q < plan.notes.size(); ++q)
+      if (plan.notes[q].motor == n.motor) {
+        next_on = plan.notes[q].on_s;
+        break;
+      }
+    if (j < s.size()) {
+      const double after = sec(s[j].rise_cycle);
+      if (after < board(next_on) - 0.0005)
+        c.max_release_late_us = std::max(c.max_release_late_us, (after - board(n.off_s)) * 1e6);
+    }
+  }
+  if (!cents.empty()) {
+    std::vector<double> sorted = cents;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    for (double x : cents) c.max_spread_cents = std::max(c.max_spread_cents, std::fabs(x - sorted[sorted.size() / 2]));
+  }
+  return c;
+}
+
+// How much real time the virtual board lost (us): it paces simulated time to the wall clock,
+// and on a machine too busy to simulate in real time it falls behind and slips. Its clock
+// then runs slow against the host's for a moment, as no crystal does. From the trace's
+// summary; -1 when it has none.
+long pacing_slipped_us(const sc::trace::Trace &t) {
+  for (const std::string &line : t.summary_lines) {
+    const size_t at = line.find("pacing_slipped_us=");
+    if (at != std::string::npos) return std::atol(line.c_str() + at + 18);
+  }
+  return -1;
+}
+
+// Real-time figures (pitch against real time, tempo) mean something only when the virtual
+// board kept real time: fails the test with the reason otherwise (ctest runs it again).
+void require_real_time(const sc::trace::Trace &t) {
+  const long slipped = pacing_slipped_us(t);
+  INFO("the virtual board fell " << slipped << " us behind real time: the machine is too busy for a real-time check");
+  REQUIRE(slipped >= 0);
+  REQUIRE(slipped < 2000);
+}
+
+// Percentile of values (nearest rank); 0 when empty.
+double pct(std::vector<double> v, double q) {
+  for (double &x : v) x = std::fabs(x);
+  return sc::trace::percentile_nearest_rank(v, q);
+}
+
+// The plan `stepchoir play` makes for this song on a board of `motors` (default options).
+Plan plan_for(const std::string &song, size_t motors, double tempo = 1.0) {
+  PlanOptions o;
+  o.tempo_scale = tempo;
+  o.motors.assign(motors, MotorConfig{});
+  return plan_song(read_song_file(song), o);
+}
+
+// Runs `stepchoir args...` to its end; its stdout.
+std::string run_stepchoir(const std::vector<std::string> &args, int *status) {
+  std::vector<std::string> argv{STEPCHOIR_BIN};
+  argv.insert(argv.end(), args.begin(), args.end());
+  ChildProcess p(argv, true);
+  const std::string out = p.read_rest(60000);
+  *status = p.wait();
+  return out;
+}
+
+void print_figures(const char *what, const PlayedCheck &c) {
+  std::printf("%s: %zu notes turned round; ", what, c.turned);
+  std::printf("%s: %zu/%zu notes, onset error p50 %.1f us p99 %.1f us max %.1f us, tempo %+.1f ppm, pitch worst "
+              "%.4f cent (%.4f cent from the others), release: late %.1f us, early %.1f us\n",
+              what, c.found, c.notes, pct(c.onset_err_us, 0.5), pct(c.onset_err_us, 0.99), pct(c.onset_err_us, 1.0),
+              c.tempo_ppm, c.max_cents, c.max_spread_cents, c.max_release_late_us, c.max_release_early_us);
+}
+
+}  // namespace
+
+TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with the host stalled", "[play]") {
+  const std::string song = write_test_song("play-multitrack.mid");
+  const std::string trace_path = scratch("play-multitrack.csv");
+  ChildProcess play({STEPCHOIR_BIN, "play", song, "--vboard", "uno", "--vboard-trace", trace_path, "--quiet"}, true);
+  // Artificial scheduling load on the host: the player is stopped for 20-80 ms at random,
+  // again and again (the virtual board, a separate process, keeps running).
+  std::atomic<bool> done{false};
+  int stalls = 0;
+  std::thread staller([&] {
+    std::mt19937 rng(11);
+    std::uniform_int_distribution<int> stall_ms(20, 80), run_ms(30, 150);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past the clock sync
+    while (!done.load()) {
+      const pid_t pid = play.pid();
+      if (pid <= 0 || kill(pid, SIGSTOP) != 0) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(stall_ms(rng)));
+      kill(pid, SIGCONT);
+      ++stalls;
+      std::this_thread::sleep_for(std::chrono::milliseconds(run_ms(rng)));
+    }
+  });
+  const std::string out = play.read_rest(60000);
+  done = true;
+  staller.join();
+  REQUIRE(play.wait() == 0);
+  INFO(out);
+  CHECK(out.find("late 0,") != std::string::npos);
+  CHECK(out.find("0 bad frames, 0 UART overruns") != std::string::npos);
+  const auto t = sc::trace::read_trace(trace_path);
+  require_real_time(t);
+  const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
+  CHECK(plan.unplayed.empty());
+  REQUIRE(plan.notes.size() == 16 + 4 + 4);
+  const PlayedCheck c = check_played(t, plan);
+  print_figures("play, host stalled", c);
+  std::printf("play, host stalled: %d stalls of 20-80 ms\n", stalls);
+  CHECK(stalls > 10);
+  INFO(c.first_problem);
+  CHECK(c.found == c.notes);
+  CHECK(pct(c.onset_err_us, 1.0) < 100.0);
+  CHECK(std::fabs(c.tempo_ppm) < 1000.0);  // the song's tempo within 0.1 %
+  CHECK(c.max_spread_cents < 0.05);        // every note in tune with the others
+  CHECK(c.max_cents < 1.0);                // and with real time (the virtual board's own pace)
+  CHECK(c.max_release_late_us < 100.0);
+  CHECK(c.max_release_early_us < 1000.0);
+}
+
+TEST_CASE("play: a crystal 0.5 % off still plays in tune in real time (auto-tune)", "[play]") {
+  const std::string song = write_test_song("play-ppm.mid");
+  for (const char *ppm : {"5000", "-5000"}) {
+    const std::string trace_path = scratch(std::string("play-ppm") + ppm + ".csv");
+    int status = -1;
+    const std::string out =
+        run_stepchoir({"play", song, "--vboard", "mega", "--clock-ppm", ppm, "--vboard-trace", trace_path, "--quiet"}, &status);
+    INFO(out);
+    REQUIRE(status == 0);
+    const auto t = sc::trace::read_trace(trace_path);
+    require_real_time(t);
+    REQUIRE(t.clock_ppm == Approx(std::atof(ppm)));
+    const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
+    const PlayedCheck c = check_played(t, plan);
+    print_figures((std::string("play, clock ") + ppm + " ppm").c_str(), c);
+    INFO(c.first_problem);
+    CHECK(c.found == c.notes);
+    CHECK(c.max_cents < 1.0);
+    CHECK(c.max_spread_cents < 0.05);
+    CHECK(std::fabs(c.tempo_ppm) < 1000.0);
+    CHECK(pct(c.onset_err_us, 1.0) < 100.0);
+  }
+}
+
+TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the check can fail)", "[play]") {
+  const std::string song = write_test_song("play-notune.mid");
+  const std::string trace_path = scratch("play-notune.csv");
+  int status = -1;
+  const std::string out = run_stepchoir(
+      {"play", song, "--vboard", "uno", "--clock-ppm", "5000", "--no-auto-tune", "--vboard-trace", trace_path, "--quiet"}, &status);
+  REQUIRE(status == 0);
+  const auto t = sc::trace::read_trace(trace_path);
+  require_real_time(t);
+  const PlayedCheck c = check_played(t, plan_for(song, static_cast<size_t>(t.motors)));
+  CHECK(c.max_cents == Approx(1200 * std::log2(1.005)).margin(1.0));
+  CHECK(c.max_spread_cents < 0.05);
+}
+
+TEST_CASE("render: a sample song through the firmware as fast as it runs, to a WAV and a picture", "[play]") {
+  const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/furelise.sng";
+  const std::string wav = scratch("render.wav"), png = scratch("render.png"), trace_path = scratch("render.csv");
+  std::remove(wav.c_str());
+  std::remove(png.c_str());
+  int status = -1;
+  const auto start = std::chrono::steady_clock::now();
+  const std::string out = run_stepchoir({"render", song, "-o", wav, "--png", png, "--trace", trace_path}, &status);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  INFO(out);
+  REQUIRE(status == 0);
+  std::ifstream w(wav, std::ios::binary);
+  char riff[4] = {};
+  w.read(riff, 4);
+  CHECK(std::string(riff, 4) == "RIFF");
+  CHECK(std::ifstream(png).good());
+  const auto t = sc::trace::read_trace(trace_path);
+  const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
+  CHECK(plan.unplayed.empty());
+  const PlayedCheck c = check_played(t, plan);
+  print_figures("render", c);
+  std::printf("render: %.1f s of song in %.1f s\n", plan.duration_s, wall_s);
+  INFO(c.first_problem);
+  CHECK(c.found == c.notes);
+  CHECK(pct(c.onset_err_us, 1.0) < 100.0);
+  CHECK(std::fabs(c.tempo_ppm) < 50.0);  // board time: the nominal clock exactly
+  CHECK(c.max_cents < 0.05);
+}
+
+TEST_CASE("play: the board reset mid-song (virtual board restarted): the host reconnects and carries on",
+          "[play][safety]") {
+  const std::string song = write_test_song("play-reset.mid");
+  const std::string link = scratch("play-reset.pty");
+  const std::string trace2 = scratch("play-reset-after.csv");
+  auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--link", link, "--quiet"});
+  ChildProcess play({STEPCHOIR_BIN, "play", song, "--tempo", "0.5", "--port", link, "--quiet"}, true);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));  // a second of sync, then into the song
+  vb.reset();  // the board goes away (SIGTERM: power off) ...
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--link", link, "--trace", trace2, "--quiet"});
+  const std::string out = play.read_rest(60000);  // ... and comes back
+  const int status = play.wait();
+  vb->stop();
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("reconnects 1") != std::string::npos);
+  // After the reconnection the song goes on in its own time: the notes that start after the
+  // new board came up play, on time against each other.
+  const auto t = sc::trace::read_trace(trace2);
+  require_real_time(t);
+  Plan plan = plan_for(song, static_cast<size_t>(t.motors), 0.5);
+  const double song_s = plan.duration_s;
+  // Keep the plan's last notes: those that start in the song's last three seconds.
+  plan.notes.erase(std::remove_if(plan.notes.begin(), plan.notes.end(),
+                                  [&](const PlannedNote &n) { return n.on_s < song_s - 3.0; }),
+                   plan.notes.end());
+  REQUIRE(plan.notes.size() >= 5);
+  const PlayedCheck c = check_played(t, plan);
+  print_figures("play, after the board came back", c);
+  INFO(c.first_problem);
+  CHECK(c.found == c.notes);
+  CHECK(pct(c.onset_err_us, 1.0) < 100.0);
+  CHECK(c.max_spread_cents < 0.05);
+  CHECK(c.max_cents < 1.0);
+}
+
+TEST_CASE("at: a sounding motor is struck again exactly on the time, and a timed silence falls on its time",
+          "[play][at]") {
+  // The player's building blocks on the firmware: motor 0 sounds, an `at` entry changes its
+  // note (a legato step of a melody), another silences it; motor 1 starts on a silent motor
+  // and fixes board ticks to trace cycles.
+  const std::string trace_path = scratch("at-strike.csv");
+  VboardProcess vb({"--board", "uno", "--no-pacing", "--seconds", "60", "--trace", trace_path, "--quiet"});
+  Board b(open_link(vb.pty()));
+  const Caps caps = b.hello();
+  const double f = caps.f_cpu_hz;
+  b.send(e2e::watchdog_payload(0));
+  const uint32_t p_old = hz_to_period_q8(880.0, f), p_new = hz_to_period_q8(784.0, f);
+  for (int round = 0; round < 12; ++round) {
+    // Each round another phase of the old note's steps against the strike time.
+    const uint32_t t0 = e2e::start_note_at(b, 1, hz_to_period_q8(440.0, f), caps.f_cpu_hz, 0.05);
+    b.send(e2e::at_payload(t0, {{0, p_old}}));
+    const uint32_t strike = t0 + static_cast<uint32_t>(0.1 * f) + static_cast<uint32_t>(round * 1379);
+    const uint32_t stop = strike + static_cast<uint32_t>(0.1 * f) + static_cast<uint32_t>(round * 977);
+    b.send(e2e::at_payload(strike, {{0, p_new}}));
+    b.send(e2e::at_payload(stop, {{0, sc::kPeriodSilent}, {1, sc::kPeriodSilent}}));
+    e2e::wait_board_time(b, stop + static_cast<uint32_t>(0.02 * f));
+  }
+  vb.stop();
+  const auto t = sc::trace::read_trace(trace_path);
+  // Motor 1's notes start exactly on their times: they give the offset of each round.
+  const auto &m0 = t.motor.at(0).steps, &m1 = t.motor.at(1).steps;
+  std::vector<uint64_t> round_start;
+  for (size_t i = 0; i < m1.size(); ++i)
+    if (i == 0 || m1[i].rise_cycle - m1[i - 1].rise_cycle > 0.01 * f) round_start.push_back(m1[i].rise_cycle);
+  REQUIRE(round_start.size() == 12);
+  for (int round = 0; round < 12; ++round) {
+    INFO("round " << round);
+    const uint64_t t0 = round_start[static_cast<size_t>(round)];
+    const uint64_t strike = t0 + static_cast<uint64_t>(0.1 * f) + static_cast<uint64_t>(round * 1379);
+    const uint64_t stop = strike + static_cast<uint64_t>(0.1 * f) + static_cast<uint64_t>(round * 977);
+    std::vector<uint64_t> edges;
+    for (const auto &s : m0)
+      if (s.rise_cycle >= t0 && s.rise_cycle < stop + static_cast<uint64_t>(0.02 * f)) edges.push_back(s.rise_cycle);
+    REQUIRE(!edges.empty());
+    CHECK(std::fabs(static_cast<double>(edges.front()) - static_cast<double>(t0)) <= 10e-6 * f);
+    // Every edge on its grid (within 10 us: two motors' edges may meet): the old one from t0
+    // up to the strike, the new one from it on; none after the silence's time.
+    const double po = p_old / 256.0, pn = p_new / 256.0, tol = 10e-6 * f;
+    size_t k_old = 0, k_new = 0;
+    if (std::getenv("STEPCHOIR_TEST_NOTES"))
+      for (uint64_t e : edges)
+        if (e + 60000 > strike && e < strike + 60000) std::printf("round %d edge %+lld\n", round, static_cast<long long>(e - strike));
+    for (uint64_t e : edges) {
+      if (e < strike) {
+        CHECK(std::fabs(static_cast<double>(e) - (t0 + po * static_cast<double>(k_old++))) <= tol);
+      } else {
+        CHECK(std::fabs(static_cast<double>(e) - (strike + pn * static_cast<double>(k_new++))) <= tol);
+        CHECK(e < stop);
+      }
+    }
+    // Every grid point before the silence got its edge: the note lasts to its time.
+    CHECK(k_new == static_cast<size_t>(std::ceil((stop - strike) / pn)));
+    CHECK(k_old == static_cast<size_t>(std::ceil((strike - t0) / po)));
+  }
+}
