@@ -70,6 +70,11 @@ volatile uint8_t g_motor_fault;
 
 const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
 const uint8_t kRaiseTicks = 14;  // burst(): from one raise to a merged next one (measured in simavr)
+// A timed strike on a sounding motor replaces an old edge due less than this before its time:
+// both would sound as one doubled step (a note change on the old note's own grid, as in a
+// legato melody, lands within a tick of an old edge). Far shorter than the command's hand-over
+// lead, so the old edge is always still pending when the command comes.
+const int32_t kStrikeSnapTicks = 512;
 
 // Called from: step ISR. Inserts motor m by deadline.
 void order_insert(Motor *m) {
@@ -244,7 +249,11 @@ inline void next_deadline(Motor &m) {
   }
   const uint16_t frac = (uint16_t)m.deadline_frac + (uint8_t)m.period_q8;
   const uint32_t next = m.deadline + (m.period_q8 >> 8) + (frac >> 8);
-  if ((m.flags & kRestrike) && (int32_t)(next - m.restrike_at) >= 0) {
+  // An old edge within kStrikeSnapTicks before the strike gives way to it. A timed silence
+  // (target 0) stops the motor before its first edge at or after the time (bookkeep_one then
+  // leaves it out of the order).
+  if ((m.flags & kRestrike) &&
+      (int32_t)(next - m.restrike_at) >= (m.target_q8 ? -kStrikeSnapTicks : 0)) {
     m.deadline = m.restrike_at;
     m.deadline_frac = 0;
     m.period_q8 = m.target_q8;
@@ -268,7 +277,7 @@ __attribute__((noinline)) void bookkeep_one() {
   g_played[best] = g_played[--g_played_count];
   account_step(*m);
   next_deadline(*m);
-  order_insert(m);
+  if (m->period_q8 != 0) order_insert(m);  // 0: a timed silence fell before its next edge
 }
 
 // Called from: step ISR (interrupts on). Starts a silent motor: direction with more room
@@ -342,7 +351,10 @@ __attribute__((noinline)) void apply_one() {
   sei();
   const uint32_t soonest = now + cfg::kStartLeadTicks;
   const bool timed = cmd == kCmdPlayAt && (int32_t)(at - soonest) > 0;
-  if (period == sc::kPeriodSilent) {
+  if (m.period_q8 == 0 && period == sc::kPeriodSilent) {
+    m.flags &= (uint8_t)~(kRamp | kRestrike);  // silent already (a timed silence may be pending)
+  } else if (period == sc::kPeriodSilent && (!timed || (int32_t)(m.deadline - at) >= 0)) {
+    // Now, or at a time before the motor's next edge (which would be the first one silenced).
     order_remove(&m);
     m.period_q8 = 0;
     m.flags &= (uint8_t)~(kRamp | kRestrike);
@@ -350,14 +362,15 @@ __attribute__((noinline)) void apply_one() {
     start(m, period, timed ? at : soonest);
   } else if (!timed) {
     retune(m, period);
-  } else if ((int32_t)(m.deadline - at) >= 0) {  // next edge not before the time: strike on it
+  } else if ((int32_t)(m.deadline - at) >= -kStrikeSnapTicks) {
+    // The next edge not before the time, or just before it: strike on it.
     order_remove(&m);
     m.deadline = at;
     m.deadline_frac = 0;
     m.period_q8 = period;
     m.flags &= (uint8_t)~(kRamp | kRestrike);
     order_insert(&m);
-  } else {  // strike on the time, after the edges still due before it
+  } else {  // strike (or fall silent) on the time, after the edges still due before it
     m.target_q8 = period;
     m.restrike_at = at;
     m.flags = (uint8_t)((m.flags & ~kRamp) | kRestrike);

@@ -256,7 +256,8 @@ void check_busy(double hz) {
     const uint32_t period_q8 = hz_to_period_q8(hz, r.caps.f_cpu_hz);
     REQUIRE(period_q8 >= sc::kPeriodQ8Min);  // a period every message may carry
     const uint32_t at = e2e::start_note_at(r.b, 0, period_q8, r.caps.f_cpu_hz);
-    std::this_thread::sleep_for(std::chrono::milliseconds(30));  // no pacing: well past `at`
+    // Past `at` (however fast the unpaced simulation runs on a busy machine), then more.
+    e2e::wait_board_time(r.b, at + static_cast<uint32_t>(20 * ticks_per_ms));
     r.b.send({sc::kMsgClockReq, 0x71});
     const auto clock = r.b.wait_reply(sc::kMsgClock, 500);  // ~2 s of board time
     r.b.send({sc::kMsgStopAll});

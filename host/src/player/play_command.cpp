@@ -224,14 +224,17 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         });
     if (show) std::fprintf(stderr, "\n");
     const PlayerStats &s = player.stats();
+    char clock[160] = "";
+    if (!rendering)
+      std::snprintf(clock, sizeof clock, ", board clock %+.1f ppm (fit error %.0f us, timeline %+.1f ppm)", s.ppm,
+                    s.residual_us, s.rate_ppm);
     std::printf("%s: %s; %llu entries in %llu frames, late %llu, queue full %llu, errors %llu, reconnects %llu, "
-                "least lead %.1f ms, board clock %+.1f ppm (fit error %.0f us, timeline %+.1f ppm)\n",
-                cmd.c_str(), ok ? (stop.load() ? "stopped, every motor silent" : "done, every motor silent")
-                                : "board lost",
+                "least lead %.1f ms%s\n",
+                cmd.c_str(), ok ? (stop.load() ? "stopped, every motor silent" : "done, every motor silent") : "board lost",
                 static_cast<unsigned long long>(s.entries_sent), static_cast<unsigned long long>(s.frames_sent),
                 static_cast<unsigned long long>(s.late_reported), static_cast<unsigned long long>(s.queue_full),
                 static_cast<unsigned long long>(s.other_errors), static_cast<unsigned long long>(s.reconnects),
-                s.min_lead_ms > 1e8 ? 0.0 : s.min_lead_ms, s.ppm, s.residual_us, s.rate_ppm);
+                s.min_lead_ms > 1e8 ? 0.0 : s.min_lead_ms, clock);
     if (s.board_frames_bad >= 0)
       std::printf("%s: the board counted %ld bad frames, %ld UART overruns; last error: %s\n", cmd.c_str(),
                   s.board_frames_bad, s.board_overruns, sc::error_name(s.board_last_error));
