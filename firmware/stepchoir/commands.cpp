@@ -184,6 +184,7 @@ void Commands::poll() {
     if (ahead > (int32_t)kHandOverTicks) break;
     if (ahead < 0) {
       fault(kErrLate);
+      reply_error(kErrLate, kMsgAt, e.motor);  // the host counts them: its lead was too short
       hal::set_period(e.motor, e.period_q8);
     } else {
       hal::set_period_at(e.motor, e.period_q8, e.at_ticks);

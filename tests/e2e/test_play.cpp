@@ -445,6 +445,15 @@ TEST_CASE("at: a sounding motor is struck again exactly on the time, and a timed
     b.send(e2e::at_payload(stop, {{0, sc::kPeriodSilent}, {1, sc::kPeriodSilent}}));
     e2e::wait_board_time(b, stop + static_cast<uint32_t>(0.02 * f));
   }
+  // An entry whose time has passed plays at once and is answered with error `late`, naming
+  // the motor, so that a host learns its lead was too short.
+  b.send(e2e::at_payload(e2e::board_ticks(b) - static_cast<uint32_t>(0.01 * f), {{2, p_new}}));
+  const auto late = b.wait_reply(sc::kMsgError, 2000);
+  REQUIRE(late);
+  CHECK((*late)[1] == sc::kErrLate);
+  CHECK((*late)[2] == sc::kMsgAt);
+  CHECK((*late)[3] == 2);
+  b.send(periods_payload({{2, sc::kPeriodSilent}}));
   vb.stop();
   const auto t = sc::trace::read_trace(trace_path);
   // Motor 1's notes start exactly on their times: they give the offset of each round.
