@@ -81,6 +81,16 @@ void Coalescer::refresh(size_t motor_count) noexcept {
   }
 }
 
+void Coalescer::refresh(const uint8_t *motors, size_t n) noexcept {
+  for (size_t i = 0; i < n; ++i) {
+    if (motors[i] >= kMaxMotors) continue;
+    Slot &s = slots_[motors[i]];
+    if (s.dirty || s.silence_first) continue;
+    s.dirty = true;
+    s.latest_us = 0;
+  }
+}
+
 void Coalescer::board_restarted() noexcept {
   for (Slot &s : slots_) {
     s.sent = sc::kPeriodSilent;
@@ -181,6 +191,12 @@ void write_entries(Link &link, BoardStats &stats, LatencyHistogram &latency, con
   }
 }
 
+// Called from: writer_loop. True when the budget would still hold half a burst after a song
+// frame of len bytes (that half is kept for live notes).
+bool song_room(const LinkBudget &budget, size_t len) noexcept {
+  return budget.credit_bytes() >= LinkBudget::kBurstBytes / 2 + static_cast<int64_t>(len);
+}
+
 // Called from: the engine and writer threads as they start. Asks for real-time scheduling
 // (SCHED_FIFO), so that a busy machine does not delay their wake-ups; without the privilege
 // the thread keeps normal scheduling. Returns whether it got it.
@@ -211,9 +227,13 @@ AllocatorConfig pool_config(const std::vector<LiveBoard> &boards, Policy policy)
 
 LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &config, int refresh_ms)
     : allocator_(config), refresh_ms_(refresh_ms) {
-  for (const LiveBoard &lb : boards) {
-    if (!lb.link || lb.motor_count == 0 || lb.motor_count > sc::kMaxMotors)
+  for (LiveBoard lb : boards) {
+    if (lb.motors.empty())
+      for (uint8_t m = 0; m < lb.motor_count; ++m) lb.motors.push_back(m);
+    if (!lb.link || lb.motor_count == 0 || lb.motor_count > sc::kMaxMotors || lb.motors.size() != lb.motor_count)
       throw std::invalid_argument("live: a board without a link or with an unusable motor count");
+    for (uint8_t m : lb.motors)
+      if (m >= sc::kMaxMotors) throw std::invalid_argument("live: a board motor index out of range");
     auto b = std::make_unique<BoardThreads>();
     b->board = lb;
     b->link.store(lb.link);
@@ -312,7 +332,7 @@ void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event
   for (size_t i = 0; i < n; ++i) {
     const size_t m = entries[i].motor;
     BoardThreads &b = *boards_[board_of_[m]];
-    const MotorUpdate u{static_cast<uint8_t>(m - b.first_motor), entries[i].period_q8, event_us};
+    const MotorUpdate u{b.board.motors[m - b.first_motor], entries[i].period_q8, event_us};
     while (!b.updates.try_enqueue(u)) std::this_thread::yield();
     const MotorState s = allocator_.motor(m);
     notes_[m].store(s.sounding && s.period_q8 ? s.played_note : -1, std::memory_order_relaxed);
@@ -336,7 +356,10 @@ void LiveSession::writer_loop(BoardThreads &b) {
     const bool stopping = b.stop_writer.load(std::memory_order_acquire);
     // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
     budget.refill(monotonic_us());
-    const uint64_t wait_us = stopping ? 0 : coalescer.pending() ? std::max<uint64_t>(budget.wait_us(), 1) : 10000;
+    const uint64_t wait_us = stopping                ? 0
+                             : coalescer.pending()   ? std::max<uint64_t>(budget.wait_us(), 1)
+                             : b.song.peek()         ? 500  // song frames wait for budget to spare
+                                                     : 10000;
     MotorUpdate u;
     if (b.updates.wait_dequeue_timed(u, std::chrono::microseconds(wait_us))) {
       coalescer.add(u);
@@ -360,7 +383,7 @@ void LiveSession::writer_loop(BoardThreads &b) {
       coalescer.board_restarted();
     }
     if (Clock::now() - last_refresh >= std::chrono::milliseconds(refresh_ms_)) {
-      coalescer.refresh(b.board.motor_count);
+      coalescer.refresh(b.board.motors.data(), b.board.motors.size());
       last_refresh = Clock::now();
     }
     budget.refill(monotonic_us());
@@ -370,6 +393,26 @@ void LiveSession::writer_loop(BoardThreads &b) {
       n = coalescer.take_latest(entries, event_us);
       if (n) write_entries(link, stats, *latency_, entries, event_us, n);
       stats.coalesced.store(coalescer.coalesced(), std::memory_order_relaxed);
+      last_write = Clock::now();
+    }
+    // Song frames (jam) go when no live update waits, within the budget and leaving it half
+    // a burst to spare, so that a live note finds room at once.
+    budget.refill(monotonic_us());
+    for (WireFrame *f = b.song.peek(); f && !coalescer.pending() && song_room(budget, f->len); f = b.song.peek()) {
+      bool ok = false;
+      try {
+        ok = link.write(f->bytes, f->len);
+      } catch (...) {
+      }
+      if (!ok) {
+        stats.write_failed.store(true, std::memory_order_relaxed);
+        break;
+      }
+      stats.frames_sent.fetch_add(1, std::memory_order_relaxed);
+      stats.bytes_sent.fetch_add(f->len, std::memory_order_relaxed);
+      budget.spend(f->len);
+      sent_bytes += f->len;
+      b.song.pop();
       last_write = Clock::now();
     }
     const auto now = Clock::now();
@@ -395,6 +438,26 @@ void LiveSession::writer_loop(BoardThreads &b) {
   }
 }
 
+bool LiveSession::send_song_frame(size_t board, const uint8_t *wire, size_t n) {
+  if (n == 0 || n > sc::kMaxFrameWire) return false;
+  WireFrame f;
+  f.len = static_cast<uint8_t>(n);
+  std::copy(wire, wire + n, f.bytes);
+  return boards_.at(board)->song.try_enqueue(f);
+}
+
+long LiveSession::read_board_bytes(size_t board, uint8_t *out, size_t len, int timeout_ms) {
+  BoardThreads &b = *boards_.at(board);
+  if (b.partial_pos >= b.partial.len) {
+    if (!b.replies.wait_dequeue_timed(b.partial, std::chrono::milliseconds(timeout_ms))) return 0;
+    b.partial_pos = 0;
+  }
+  const size_t n = std::min<size_t>(len, b.partial.len - b.partial_pos);
+  std::copy(b.partial.bytes + b.partial_pos, b.partial.bytes + b.partial_pos + n, out);
+  b.partial_pos += n;
+  return static_cast<long>(n);
+}
+
 // One board's reader thread: replies -> BoardStats. Not on the real-time path.
 void LiveSession::reader_loop(BoardThreads &b) {
   sc::FrameDecoder decoder;
@@ -417,6 +480,12 @@ void LiveSession::reader_loop(BoardThreads &b) {
       stats.read_failed.store(true, std::memory_order_relaxed);
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
       continue;
+    }
+    for (long i = 0; b.forward && i < n; i += sizeof(ReplyChunk::bytes)) {
+      ReplyChunk c;
+      c.len = static_cast<uint8_t>(std::min<long>(n - i, sizeof c.bytes));
+      std::copy(buf + i, buf + i + c.len, c.bytes);
+      b.replies.try_enqueue(c);  // a player that stopped reading loses bytes, never blocks this
     }
     for (long i = 0; i < n; ++i) {
       if (decoder.push(buf[i]) != sc::kFrameOk) continue;

@@ -65,6 +65,8 @@ class LinkBudget {
   void refill(uint64_t now_us) noexcept;
   // True when a frame may go now (the budget may then go negative by that frame's bytes).
   bool can_send() const noexcept { return credit_ >= 0; }
+  // Whole bytes of credit now (negative when overspent).
+  int64_t credit_bytes() const noexcept { return credit_ / kMicro; }
   void spend(size_t bytes) noexcept { credit_ -= static_cast<int64_t>(bytes) * kMicro; }
   // How long until can_send(), in us (0 when it already can).
   uint64_t wait_us() const noexcept;
@@ -93,6 +95,8 @@ class Coalescer {
   // Marks motors 0 .. motor_count-1 to be sent again with their latest state (the entries
   // carry event time 0: no MIDI event behind them). Called from: the writer thread.
   void refresh(size_t motor_count) noexcept;
+  // The same for the listed motors only.
+  void refresh(const uint8_t *motors, size_t n) noexcept;
   // After the board was replaced by a fresh (silent) one: every motor whose latest state is a
   // note becomes pending again, so take_latest restores what should be sounding.
   void board_restarted() noexcept;
@@ -144,10 +148,25 @@ struct BoardStats {
 };
 
 // One board of the pool: its link (owned by the caller, alive until stop()) and capabilities.
+// motors: the board's motors the live path plays (jam: the others play a song), in pool
+// order; empty: 0 .. motor_count-1. motor_count is then motors.size().
 struct LiveBoard {
   Link *link = nullptr;
   uint8_t motor_count = 0;
   uint32_t f_cpu_hz = 0;
+  std::vector<uint8_t> motors;
+};
+
+// A frame for the board from someone else than the live path (jam: the song player), as
+// bytes on the wire.
+struct WireFrame {
+  uint8_t len = 0;
+  uint8_t bytes[sc::kMaxFrameWire];
+};
+// Bytes the board sent, as its reader thread read them (jam: passed on to the song player).
+struct ReplyChunk {
+  uint8_t len = 0;
+  uint8_t bytes[64];
 };
 
 // Defaults for a pool: every motor plays the piano range on its board's clock.
@@ -159,6 +178,8 @@ class LiveSession {
  public:
   static constexpr size_t kMidiQueueEvents = 4096;
   static constexpr size_t kUpdateQueueEntries = 4096;
+  static constexpr size_t kSongFrames = 64;     // jam: song frames waiting for the link
+  static constexpr size_t kReplyChunks = 1024;  // jam: board bytes waiting for the player
   // SCHED_FIFO priorities when the system grants them: below JACK's usual 70-95, the writer
   // under the engine.
   static constexpr int kEnginePriority = 60;
@@ -195,6 +216,16 @@ class LiveSession {
   bool detach_link(size_t board, int timeout_ms = 3000);
   void attach_link(size_t board, Link *link);
 
+  // Jam: the song player's side of board b's link. send_song_frame queues one wire frame
+  // that the writer sends when no live update waits and the link budget has room to spare
+  // (a live note never waits behind song traffic); false when the queue is full.
+  // read_board_bytes returns what the board sent since (up to len bytes, waiting up to
+  // timeout_ms; 0 on timeout). Only once forward_replies(b) was called (before start()) does
+  // the reader keep the bytes for it. Called from: the song player's thread (one per board).
+  bool send_song_frame(size_t b, const uint8_t *wire, size_t n);
+  long read_board_bytes(size_t b, uint8_t *out, size_t len, int timeout_ms);
+  void forward_replies(size_t b) { boards_.at(b)->forward = true; }
+
   // Per pool motor: the MIDI note it plays (played note, after folding), or -1 when silent.
   // Called from: any thread.
   int motor_note(size_t m) const noexcept;
@@ -222,6 +253,12 @@ class LiveSession {
     std::unique_ptr<BoardStats> stats = std::make_unique<BoardStats>();
     std::atomic<bool> stop_writer{false}, stop_reader{false};
     std::thread writer, reader;
+    // Jam: song frames in, board bytes out (see send_song_frame).
+    moodycamel::ReaderWriterQueue<WireFrame> song{kSongFrames};
+    moodycamel::BlockingReaderWriterQueue<ReplyChunk> replies{kReplyChunks};
+    ReplyChunk partial;      // read_board_bytes: a chunk taken but not all handed out
+    size_t partial_pos = 0;
+    bool forward = false;
   };
 
   void engine_loop();                   // the engine thread

@@ -1,5 +1,5 @@
 // main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config, gcode,
-// play, render.
+// play, render, jam.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -163,7 +163,7 @@ int main(int argc, char **argv) {
       return 0;
     }
     if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
-    if (app.got_subcommand(play->play) || app.got_subcommand(play->render)) {
+    if (app.got_subcommand(play->play) || app.got_subcommand(play->render) || app.got_subcommand(play->jam)) {
       std::signal(SIGUSR1, on_pause_signal);
       return play->run(g_stop);
     }

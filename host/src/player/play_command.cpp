@@ -7,12 +7,18 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <thread>
 
 #include "board.h"
+#include "config.h"
 #include "link.h"
+#include "live.h"
+#include "midi_in.h"
 #include "pitch.h"
 #include "player/plan.h"
 #include "player/player.h"
@@ -118,6 +124,31 @@ int run_sibling(const std::string &vboard_path, const std::string &prog, std::ve
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// Jam: the song player's side of a board the live path drives. Frames go to the live writer
+// (which sends them when no live note waits), bytes come from the live reader.
+class JamLink : public Link {
+ public:
+  JamLink(LiveSession &session, size_t board, std::string name) : session_(session), board_(board), name_(std::move(name)) {}
+  // Called from: the song player's thread. Waits (up to a second) while the writer's song
+  // queue is full.
+  bool write(const uint8_t *data, size_t len) override {
+    for (int i = 0; i < 1000; ++i) {
+      if (session_.send_song_frame(board_, data, len)) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return false;
+  }
+  long read(uint8_t *data, size_t len, int timeout_ms) override {
+    return session_.read_board_bytes(board_, data, len, timeout_ms);
+  }
+  std::string name() const override { return name_ + " (song)"; }
+
+ private:
+  LiveSession &session_;
+  size_t board_;
+  std::string name_;
+};
+
 }  // namespace
 
 void toggle_play_pause() { g_pause.store(!g_pause.load()); }
@@ -156,6 +187,20 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   c->play->add_flag("--quiet,-q", c->quiet, "No progress line");
   c->play->add_option("--dry-run", c->dry_run_motors, "Print which motor plays what for N motors; play nothing")
       ->check(CLI::Range(1, 32));
+  c->jam = app.add_subcommand("jam", "Play a song on some motors and a MIDI keyboard on the others");
+  selection(c->jam);
+  c->jam->add_option("--midi", c->midi, "MIDI input: index, part of its name, or virtual[:NAME]")->default_val(c->midi);
+  c->jam->add_option("--midi-api", c->midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))->default_val(c->midi_api);
+  c->jam->add_option("--policy", c->policy, "Note allocation for the keyboard")
+      ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
+  c->jam->add_option("--song-motors", c->song_motors, "The board's motors that play the song (the keyboard plays the rest)")
+      ->delimiter(',')->default_str("0,1");
+  c->jam->add_option("--port,-p", c->port, "Board (none: the virtual board, in real time)");
+  c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
+  c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
+      ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
+  c->jam->add_flag("--loop", c->loop, "Start the song again at the end (Ctrl-C stops)");
+  c->jam->add_flag("--quiet,-q", c->quiet, "No progress line");
   c->render = app.add_subcommand("render", "Play a song through the firmware on the virtual board, as fast as it "
                                            "runs, and write what the motors played");
   selection(c->render);
@@ -167,7 +212,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
 
 int PlayCommand::run(std::atomic<bool> &stop) const {
   const bool rendering = render && render->parsed();
-  const std::string cmd = rendering ? "render" : "play";
+  const bool jamming = jam && jam->parsed();
+  const std::string cmd = rendering ? "render" : jamming ? "jam" : "play";
   try {
     const Song song = read_song_file(this->song);
     for (const std::string &w : song.warnings) std::fprintf(stderr, "%s: warning: %s\n", cmd.c_str(), w.c_str());
@@ -193,20 +239,60 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (rendering) extra.push_back("--no-pacing");
       if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
       vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
-      if (!rendering) std::printf("play: no --port: playing on the virtual board (%s) at %s\n", vboard.c_str(), link_path.c_str());
+      if (!rendering)
+        std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboard.c_str(), link_path.c_str());
     }
     auto board = std::make_unique<Board>(open_link(link_path));
     const Caps caps = board->hello();
-    const Plan plan = plan_song(song, plan_options(sel, caps.motor_count));
-    report_plan(cmd, song, plan, caps.motor_count);
+    // Jam: the song's motors and the keyboard's.
+    std::vector<uint8_t> song_ids, live_ids;
+    for (uint8_t m = 0; m < caps.motor_count; ++m) {
+      const bool for_song = !jamming || std::find(song_motors.begin(), song_motors.end(), m) != song_motors.end();
+      (for_song ? song_ids : live_ids).push_back(m);
+    }
+    if (jamming) {
+      for (int m : song_motors)
+        if (m < 0 || m >= caps.motor_count)
+          throw std::runtime_error("--song-motors: motor " + std::to_string(m) + ": the board has motors 0-" +
+                                   std::to_string(caps.motor_count - 1));
+      if (song_ids.empty() || live_ids.empty())
+        throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the board has " +
+                                 std::to_string(caps.motor_count) + ")");
+    }
+    const Plan plan = plan_song(song, plan_options(sel, song_ids.size()));
+    report_plan(cmd, song, plan, song_ids.size());
+    std::unique_ptr<LiveSession> session;
+    std::unique_ptr<MidiIn> midi_in;
+    std::unique_ptr<Board> song_board = std::move(board);
+    if (jamming) {
+      // The live path owns the link (its writer sends live notes first); the song goes
+      // through it (JamLink). The live side plays the other motors.
+      LiveBoard lb{&song_board->link(), static_cast<uint8_t>(live_ids.size()), caps.f_cpu_hz, live_ids};
+      session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, pool_config({lb}, parse_policy(policy)));
+      session->forward_replies(0);
+      midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
+      session->start();
+      board = std::make_unique<Board>(std::make_unique<JamLink>(*session, 0, link_path));
+      std::string ids_song, ids_live;
+      for (uint8_t m : song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(m);
+      for (uint8_t m : live_ids) ids_live += (ids_live.empty() ? "" : ",") + std::to_string(m);
+      std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
+                  midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
+      std::fflush(stdout);
+    } else {
+      board = std::move(song_board);
+    }
     PlayerOptions po;
+    po.motors = song_ids;
+    po.exclusive = !jamming;
     po.board_time = rendering;
     po.lead_s = lead_ms / 1e3;
     po.sync_s = sync_s;
     po.loop = loop && !rendering;
     po.auto_tune = !no_auto_tune;
-    Player player(std::move(board), caps, plan_events(plan), plan.duration_s, po,
-                  [link_path] { return open_link(link_path); });
+    LinkOpener opener;
+    if (!jamming) opener = [link_path] { return open_link(link_path); };  // jam: the live path reconnects
+    Player player(std::move(board), caps, plan_events(plan), plan.duration_s, po, opener);
     Keys keys;
     const bool show = !quiet && !rendering && ::isatty(2);
     const bool ok = player.run(
@@ -223,6 +309,14 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
                        static_cast<unsigned long long>(p.stats->late_reported), p.paused ? " (space resumes)" : "");
         });
     if (show) std::fprintf(stderr, "\n");
+    if (jamming) {
+      midi_in.reset();  // no more callbacks
+      session->stop();  // the keyboard's motors silent, then stop-all
+      std::printf("jam: %llu MIDI events, latency p50 %llu us, p99 %llu us\n",
+                  static_cast<unsigned long long>(session->events()),
+                  static_cast<unsigned long long>(session->latency().percentile(0.5)),
+                  static_cast<unsigned long long>(session->latency().percentile(0.99)));
+    }
     const PlayerStats &s = player.stats();
     char clock[160] = "";
     if (!rendering)

@@ -1,5 +1,5 @@
-// play_command.h: the `stepchoir play` and `stepchoir render` subcommands (a song file through
-// the motors, in real time or as fast as the virtual board runs).
+// play_command.h: the `stepchoir play`, `render` and `jam` subcommands (a song file through the
+// motors, in real time or as fast as the virtual board runs, or with a keyboard on top).
 #ifndef STEPCHOIR_HOST_PLAYER_PLAY_COMMAND_H
 #define STEPCHOIR_HOST_PLAYER_PLAY_COMMAND_H
 
@@ -21,7 +21,7 @@ struct SongSelection {
 };
 
 struct PlayCommand {
-  CLI::App *play = nullptr, *render = nullptr;
+  CLI::App *play = nullptr, *render = nullptr, *jam = nullptr;
   std::string song;
   SongSelection sel;
   // play
@@ -31,13 +31,16 @@ struct PlayCommand {
   int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing
   // render
   std::string out_wav, out_png, keep_trace;
+  // jam
+  std::string midi = "virtual", midi_api = "alsa", policy = "poly";
+  std::vector<int> song_motors{0, 1};
 
   // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C
   // (the q key sets it too).
   int run(std::atomic<bool> &stop) const;
 };
 
-// Adds `play` and `render` to the command line. Called by main before parsing.
+// Adds `play`, `render` and `jam` to the command line. Called by main before parsing.
 std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app);
 
 // Toggles pause in a running `play` (SIGUSR1 does the same, for scripts). Called from: the

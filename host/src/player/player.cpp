@@ -262,13 +262,23 @@ bool Player::restore_at(double score_s) {
   return true;
 }
 
-// Called from: run, at the end, on pause and on stop. Every motor silent now, the board's
-// queue emptied, the drivers off.
+// Called from: run, at the end, on pause and on stop. Every motor of the song silent now;
+// with the board to itself, the board's queue emptied and the drivers off (stop-all). Sharing
+// it (jam), stop-all would silence the keyboard's motors too: a timed silence after the last
+// entry still queued follows instead (those play out first, within the lead).
 void Player::silence() {
   std::vector<sc::PeriodEntry> entries;
   for (uint8_t m : opt_.motors) entries.push_back({m, sc::kPeriodSilent});
   send_payload(periods_payload(entries));
-  send_payload({sc::kMsgStopAll});
+  if (opt_.exclusive) {
+    send_payload({sc::kMsgStopAll});
+  } else if (!queued_ticks_.empty()) {
+    std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
+    sc::put_u32(&payload[1], static_cast<uint32_t>(static_cast<uint64_t>(std::llround(queued_ticks_.back())) + 1));
+    const std::vector<uint8_t> body = periods_payload(entries);
+    payload.insert(payload.end(), body.begin(), body.end());
+    send_payload(payload);
+  }
   queued_ticks_.clear();
 }
 

@@ -45,6 +45,7 @@ struct PlayerOptions {
   bool auto_tune = true;         // periods from the measured clock rate (else F_CPU)
   double reconnect_s = 30;       // a lost board is retried this long (0: give up at once)
   std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
+  bool exclusive = true;         // the board is the song's alone (jam: false, see silence())
 };
 
 // What the player did, for the progress line, the final report and tests.
