@@ -154,7 +154,7 @@ struct LiveBoard {
   Link *link = nullptr;
   uint8_t motor_count = 0;
   uint32_t f_cpu_hz = 0;
-  std::vector<uint8_t> motors;
+  std::vector<uint8_t> motors{};
 };
 
 // A frame for the board from someone else than the live path (jam: the song player), as

@@ -25,7 +25,7 @@ VirtualBoard::VirtualBoard(const std::string &board, const std::string &link_pat
   self[n] = 0;
   std::string dir(self);
   path_ = dir.substr(0, dir.rfind('/')) + "/stepchoir-vboard";
-  std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet"};
+  std::vector<std::string> args{path_, "--board", board, "--link", link_path, "--quiet", "--exit-with-parent"};
   if (!trace_path.empty()) args.insert(args.end(), {"--trace", trace_path});
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   std::vector<char *> argv;

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <signal.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <atomic>
@@ -179,6 +180,10 @@ PlayedCheck check_played(const sc::trace::Trace &t, const Plan &plan) {
     std::vector<uint64_t> edges;
     size_t j = static_cast<size_t>(i);
     for (; j < s.size() && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
+    if (edges.empty()) {  // the motor's next edge comes after the note's end: not played
+      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps while it lasts";
+      continue;
+    }
     ++c.found;
     const double hz = note_hz(n.pitch);
     const double period_s = 1.0 / hz;
@@ -551,4 +556,60 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
     const double held_s = static_cast<double>(it->end_cycle - it->start_cycle) / t.f_cpu_hz;
     CHECK(held_s == Approx(k.off_s - k.on_s).margin(0.03));
   }
+}
+
+TEST_CASE("play: a black-MIDI file (every key at once, 3,000 notes a second) ends silent in bounded memory",
+          "[play][safety]") {
+  // 8 s: all 128 keys at once for the first second, then 30 new notes every 10 ms, each 10-50
+  // ms long, on 16 channels; note-ons and offs interleaved as such files have them.
+  const uint16_t ppq = 480;  // 120 bpm: a tick is 1.04 ms
+  std::mt19937 rng(42);
+  std::vector<std::pair<uint32_t, std::vector<uint8_t>>> ev;  // absolute tick, message
+  for (int k = 0; k < 128; ++k) {
+    ev.push_back({0, {static_cast<uint8_t>(0x90 | (k % 16)), static_cast<uint8_t>(k), 100}});
+    ev.push_back({960, {static_cast<uint8_t>(0x80 | (k % 16)), static_cast<uint8_t>(k), 0}});
+  }
+  size_t notes = 128;
+  for (uint32_t tick = 960; tick < 7680; tick += 10)
+    for (int i = 0; i < 30; ++i, ++notes) {
+      const auto ch = static_cast<uint8_t>(rng() % 16), key = static_cast<uint8_t>(rng() % 128);
+      ev.push_back({tick, {static_cast<uint8_t>(0x90 | ch), key, static_cast<uint8_t>(1 + rng() % 127)}});
+      ev.push_back({tick + 10 + static_cast<uint32_t>(rng() % 40), {static_cast<uint8_t>(0x80 | ch), key, 0}});
+    }
+  std::stable_sort(ev.begin(), ev.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+  smf::Track track;
+  uint32_t last = 0;
+  for (const auto &e : ev) {
+    smf::vlq(track.bytes, e.first - last);
+    track.bytes.insert(track.bytes.end(), e.second.begin(), e.second.end());
+    last = e.first;
+  }
+  track.end(0);
+  const auto bytes = smf::file(0, ppq, {track});
+  const std::string song = scratch("black.mid"), trace_path = scratch("black.csv");
+  std::ofstream(song, std::ios::binary).write(reinterpret_cast<const char *>(bytes.data()),
+                                               static_cast<std::streamsize>(bytes.size()));
+  int status = -1;
+  const std::string out = run_stepchoir({"play", song, "--vboard", "uno", "--vboard-trace", trace_path, "--quiet"}, &status);
+  rusage usage{};
+  getrusage(RUSAGE_CHILDREN, &usage);
+  INFO(out);
+  REQUIRE(status == 0);
+  std::printf("black MIDI: %zu notes in %zu bytes; peak memory of the test's children %ld MiB\n%s", notes, bytes.size(),
+              usage.ru_maxrss / 1024, out.c_str());
+  CHECK(out.find("not played:") != std::string::npos);  // the notes left out are listed
+  CHECK(out.find("0 UART overruns") != std::string::npos);
+  CHECK(usage.ru_maxrss < 256 * 1024);  // KiB: bounded, whatever the file
+  // At the end nothing sounds: no step after the song's last note ends.
+  const auto t = sc::trace::read_trace(trace_path);
+  const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
+  CHECK(plan.notes.size() > 500);
+  print_figures("black MIDI", check_played(t, plan));
+  uint64_t last_step = 0;
+  for (const auto &m : t.motor) last_step = m.steps.empty() ? last_step : std::max(last_step, m.steps.back().rise_cycle);
+  for (const auto &m : t.motor) {
+    if (m.steps.empty()) continue;
+    CHECK(t.end_cycle - m.steps.back().rise_cycle > 0);
+  }
+  CHECK(t.end_cycle - last_step > static_cast<uint64_t>(0.1 * t.f_cpu_hz));  // silent for the run's last 100 ms at least
 }

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "board.h"
 #include "live.h"
 #include "midi_in.h"
 #include "rt_guard.h"
@@ -234,6 +235,52 @@ TEST_CASE("live: notes reach the link as set-period frames, and stop silences an
   CHECK(s.events() == 3);
   CHECK(s.latency().count() == 4);
   CHECK(s.board_stats(0).frames_sent.load() == frames.size());
+}
+
+TEST_CASE("live: jam - song frames from another thread go out whole and in order, live notes on their motors",
+          "[live]") {
+  FakeLink link;
+  const LiveBoard board{&link, 2, kF, {2, 3}};  // the keyboard plays motors 2 and 3
+  LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
+  s.forward_replies(0);
+  s.start();
+  const int kSongFrames = 200;
+  std::thread song([&] {  // the song player's thread
+    for (int i = 0; i < kSongFrames; ++i) {
+      std::vector<uint8_t> p{sc::kMsgAt, 0, 0, 0, 0};
+      sc::put_u32(&p[1], static_cast<uint32_t>(i));
+      const auto e = periods_payload({{0, static_cast<uint32_t>(1000 + i)}});
+      p.insert(p.end(), e.begin(), e.end());
+      const auto wire = frame(p);
+      while (!s.send_song_frame(0, wire.data(), wire.size())) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  for (int i = 0; i < 20; ++i) {
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, static_cast<uint8_t>(60 + i), 100, monotonic_us())));
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    REQUIRE(s.midi_queue().try_enqueue(note_off(0, static_cast<uint8_t>(60 + i), 0, monotonic_us())));
+  }
+  song.join();
+  uint8_t buf[16];
+  CHECK(s.read_board_bytes(0, buf, sizeof buf, 10) == 0);  // the fake board says nothing
+  REQUIRE(eventually([&] {
+    size_t at = 0;
+    for (const auto &f : link.frames()) at += f[0] == sc::kMsgAt;
+    return at == kSongFrames;
+  }));
+  s.stop();
+  uint32_t next = 0;
+  for (const auto &f : link.frames()) {
+    if (f[0] != sc::kMsgAt) continue;
+    CHECK(sc::get_u32(&f[1]) == next++);  // whole and in order
+  }
+  const auto entries = entries_of(link.frames());
+  size_t live = 0;
+  for (const auto &e : entries) {
+    CHECK((e.motor == 2 || e.motor == 3));  // the keyboard never touches the song's motors
+    live += e.period_q8 != 0;
+  }
+  CHECK(live == 20);
 }
 
 TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {

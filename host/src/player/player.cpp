@@ -19,8 +19,9 @@ namespace {
 // Entries the host leaves free in the board's queue: its count of what the board still holds
 // is an estimate.
 constexpr size_t kQueueSpare = 2;
-// An entry is taken as gone from the board's queue this long after its time.
-constexpr double kQueueFreeAfterS = 0.002;
+// An entry is taken as gone from the board's queue this long after its time (the board lets
+// it go a little before; the host's view of the board's clock may be off by a few ms).
+constexpr double kQueueFreeAfterS = 0.01;
 // Board-time mode: clock round trips this often (the simulated board's speed changes), and
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;

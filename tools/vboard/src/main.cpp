@@ -127,7 +127,10 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   uint64_t last_trace_flush_ns = start_wall_ns;
   LoopResult result;
 
+  const pid_t parent = getppid();
   while (!g_stop_signal && avr.cycle() < end_cycle) {
+    // A board started by a program (stepchoir play, render) goes when it goes, even killed.
+    if (options.exit_with_parent && getppid() != parent) g_stop_signal = SIGHUP;
     link.poll_rx();
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();

@@ -39,7 +39,7 @@ const char *usage_text() {
          "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
-         "          [--trace-frames] [--no-measure] [--quiet]\n"
+         "          [--trace-frames] [--no-measure] [--exit-with-parent] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
          "  --link PATH         symlink to the pty, removed on exit\n"
@@ -57,6 +57,7 @@ const char *usage_text() {
          "  --line-duplicate P  ... arrives twice with probability P\n"
          "  --trace-frames      also trace when each host frame's last byte reaches the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
+         "  --exit-with-parent  stop (as on SIGTERM) once the process that started it is gone\n"
          "  --quiet             no summary on stderr\n";
 }
 
@@ -159,6 +160,8 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
       options.trace_frames = true;
     } else if (arg == "--quiet") {
       options.quiet = true;
+    } else if (arg == "--exit-with-parent") {
+      options.exit_with_parent = true;
     } else if (arg == "--no-measure") {
       options.measure = false;
     } else {

@@ -26,6 +26,7 @@ struct Options {
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
   bool trace_frames = false;  // a trace row for every host frame's delimiter
   bool quiet = false;
+  bool exit_with_parent = false;  // stop when the process that started it is gone
   bool measure = true;
   bool help = false;
 };
