@@ -42,6 +42,11 @@ static const uint8_t kCliLeadTicks = 64;
 // wait that would keep them off longer than this (ticks) lets a waiting UART byte in first
 // (its ISR takes up to 54 cycles, so that edge may then be late).
 static const uint8_t kMaxOffTicks = 100;
+// ...but only when the next raise is at least this far (ticks), so that the UART ISR (54
+// cycles, entry to RETI) and the way back into the wait fit before it; a wait that would keep
+// interrupts off longer than kMaxOffHardTicks lets the byte in anyway (the edge may be late).
+static const uint8_t kUartSlackTicks = 72;
+static const uint8_t kMaxOffHardTicks = 160;
 
 // An edge due less than this (ticks) after the previous one in a burst is raised right after
 // it, without a wait, and the previous one that much later: both within 1.6 us of their ticks,
@@ -70,7 +75,7 @@ static const uint8_t kMinLeadTicks = 200;
 
 // A motor that starts from silence plays its first edge this long after the step ISR took
 // its command (ticks): the ISR is running then, so this only has to cover its own loop.
-static const uint16_t kStartLeadTicks = 600;
+static const uint16_t kStartLeadTicks = 300;
 
 // Overload guard (ticks): a step ISR invocation running longer than kMaxIsrTicks stops waiting
 // for edges and returns once its bookkeeping is done, leaving the main loop at least

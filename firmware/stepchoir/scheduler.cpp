@@ -69,7 +69,7 @@ volatile uint8_t g_motor_fault;
 // g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
 const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
-const uint8_t kRaiseTicks = 14;  // burst(): from one raise to a merged next one (measured in simavr)
+const uint8_t kPairTicks = 11;  // burst(): from a pair's first raise to its second on another port (measured in simavr)
 
 // Called from: step ISR. Inserts motor m by deadline.
 void order_insert(Motor *m) {
@@ -131,15 +131,30 @@ __attribute__((noinline)) void burst() {
     Motor *m = g_order[i];
     const uint16_t t = (uint16_t)m->deadline;
     volatile uint8_t *const port = m->step_port;
-    const uint8_t mask = m->step_mask;
+    uint8_t mask = m->step_mask;
+    // A pair: the next edge due less than kMergeTicks after this one is raised together with
+    // it, its port and mask loaded before the wait (one write when they share a port).
+    volatile uint8_t *port2 = port;
+    uint8_t mask2 = 0;  // nonzero: a pair on two ports
+    bool pair = false;
     if (i == 0 || (uint16_t)(t - prev) >= cfg::kMergeTicks) {
       prev = t;
-      // With the next edge close behind, raise this one a little late and that one right after
-      // it, splitting the error between the two.
       uint16_t at = t;
       if (i + 1 < n) {
-        const uint16_t gap = (uint16_t)((uint16_t)g_order[i + 1]->deadline - t);
-        if (gap < cfg::kMergeTicks && gap > kRaiseTicks) at = (uint16_t)(t + ((gap - kRaiseTicks) >> 1));
+        const Motor *next = g_order[i + 1];
+        const uint16_t gap = (uint16_t)((uint16_t)next->deadline - t);
+        if (gap < cfg::kMergeTicks) {
+          // raise this one a little late and that one right after it, splitting the error
+          pair = true;
+          port2 = next->step_port;
+          mask2 = next->step_mask;
+          const uint8_t pair_ticks = port2 == port ? 0 : kPairTicks;
+          if (port2 == port) {
+            mask = (uint8_t)(mask | mask2);
+            mask2 = 0;
+          }
+          if (gap > pair_ticks) at = (uint16_t)(t + ((gap - pair_ticks) >> 1));
+        }
       }
       if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
         sei();
@@ -150,8 +165,12 @@ __attribute__((noinline)) void burst() {
             ++low;                                                            // and nested ISRs keep off
           }
         }
-      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
-        sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
+      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks &&
+                 ((int16_t)(at - TCNT1) >= (int16_t)cfg::kUartSlackTicks ||
+                  (uint16_t)(at - off_since) > cfg::kMaxOffHardTicks)) {
+        // Waiting with interrupts still off would keep them off too long: a UART byte first,
+        // when its ISR fits before the raise (or when it cannot wait any longer).
+        sei();
         __asm__ __volatile__("nop");
         off = false;
       }
@@ -169,7 +188,12 @@ __attribute__((noinline)) void burst() {
       off_since = TCNT1;
     }
     *port |= mask;
+    if (mask2) *port2 |= mask2;  // the pair's second edge, on another port
     raised[i] = TCNT1;
+    if (pair) {
+      raised[i + 1] = raised[i];
+      ++i;
+    }
   }
   sei();
   for (; low < n; ++low) {
