@@ -108,9 +108,13 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // g_order to g_played.
 //
 // How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
-// port and mask are loaded before its wait, so between two raises only a tick compare and the
-// port write remain (about 45 cycles). An edge due less than kMergeTicks after the previous one
-// is raised right after it, without a wait, and the previous one waits half the gap longer.
+// port and mask are loaded before its wait. An edge due less than kMergeTicks after the
+// previous one is raised with it as a pair, its port and mask loaded before the wait too: the
+// first one is raised half the gap (less kPairTicks) late and the second right after it (in
+// the same write when they share a port). Before pairs, a merged edge followed its partner
+// after a whole pass of the loop (60-90 cycles, not the 14 assumed), 4-5 us late. A pass of
+// the loop between two separate raises still takes 90-130 cycles (measured with
+// STEPCHOIR_VBOARD_PCTRACE): an edge due that soon after the previous raise comes late.
 // Interrupts are off from kCliLeadTicks before a raise until it is done, and stay off into the
 // next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
 // off longer than kMaxOffTicks: then a waiting UART byte is let in first.
@@ -165,12 +169,8 @@ __attribute__((noinline)) void burst() {
             ++low;                                                            // and nested ISRs keep off
           }
         }
-      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks &&
-                 ((int16_t)(at - TCNT1) >= (int16_t)cfg::kUartSlackTicks ||
-                  (uint16_t)(at - off_since) > cfg::kMaxOffHardTicks)) {
-        // Waiting with interrupts still off would keep them off too long: a UART byte first,
-        // when its ISR fits before the raise (or when it cannot wait any longer).
-        sei();
+      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
+        sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
         __asm__ __volatile__("nop");
         off = false;
       }
