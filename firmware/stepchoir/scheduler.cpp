@@ -522,10 +522,11 @@ void silence_all() {
 // motor first, as its own next edge may follow soon. It returns when nothing is left to do and
 // the next edge is far enough to come back for it.
 // Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most 265 cycles (16.6 us, in burst()); one invocation up to 9,901 cycles
-// (uno) / 10,946 (mega) with interrupts on, while four or five motors play; CPU load 33 % (uno)
-// / 42 % (mega) with every motor sounding: about 1,500 cycles an edge, a third of them spent
-// waiting for the edge with interrupts on.
+// interrupts off at most 238 cycles with light traffic (at its entry, before the sei below),
+// 263 (16.4 us, in burst()) with frames back to back at full line speed; one invocation up to
+// 9,956 cycles (uno) / 13,981 (mega) with interrupts on, while four or five motors play; CPU
+// load 32 % (uno) / 41 % (mega) with every motor sounding: about 1,500 cycles an edge, a third
+// of them spent waiting for the edge with interrupts on.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
