@@ -107,7 +107,7 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // chord 3: 7,900 steps a second) overload it, so its guard hands the main loop time and edges
 // come up to ~0.4 ms late. These bounds are the envelope measured with the current scheduler
 // (docs/ARCHITECTURE.md, bench/results), kept as a regression guard; pitch is held to the
-// target everywhere. Live traffic, uno, 15 runs: worst p99 4.4-11.8 us, worst max 7.1-15.2 us
+// target everywhere. Live traffic, uno, 18 runs: worst p99 4.4-11.8 us, worst max 7.1-17.9 us
 // (one run in 21 had one edge 126 us late: a missed compare, re-armed by the main loop).
 const Bounds kFullSpeed = {400.0, 800.0};
 const Bounds kLiveTraffic = {20.0, 40.0};
