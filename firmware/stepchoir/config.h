@@ -40,12 +40,15 @@ static const uint8_t kCliLeadTicks = 64;
 
 // Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, but a
 // wait that would keep them off longer than this (ticks) lets a waiting UART byte in first
-// (its ISR takes up to 54 cycles, so that edge may then be late).
-static const uint8_t kMaxOffTicks = 100;
+// (its ISR takes up to 54 cycles, so that edge may then be late). 88: with a pair's second
+// write in the window, interrupts stay off at most 263 cycles at full line speed (100 gave 308).
+static const uint8_t kMaxOffTicks = 88;
 
-// An edge due less than this (ticks) after the previous one in a burst is raised right after
-// it, without a wait, and the previous one that much later: both within 1.6 us of their ticks,
-// where a wait between them would put the second up to 3.5 us late.
+// An edge due less than this (ticks) after the previous one in a burst is raised with it as a
+// pair: its port and mask are loaded before the wait, the first edge is raised half the gap
+// (less the 11 cycles between the two writes) late and the second right after it, one write
+// when they share a port: both within 1.7 us of their ticks, where a pass of the raise loop
+// between them takes 90-130 cycles.
 static const uint8_t kMergeTicks = 64;
 
 // The compare unit fires this long before a deadline: time for the ISR's prologue (run with
@@ -69,8 +72,9 @@ static const uint16_t kBookkeepTicks = 1000;
 static const uint8_t kMinLeadTicks = 200;
 
 // A motor that starts from silence plays its first edge this long after the step ISR took
-// its command (ticks): the ISR is running then, so this only has to cover its own loop.
-static const uint16_t kStartLeadTicks = 600;
+// its command (ticks): the ISR is running then, so this only has to cover its own loop into
+// the burst. 300 (was 600): a note's onset 8-10 us sooner (`test_e2e "link: a note starts*"`).
+static const uint16_t kStartLeadTicks = 300;
 
 // Overload guard (ticks): a step ISR invocation running longer than kMaxIsrTicks stops waiting
 // for edges and returns once its bookkeeping is done, leaving the main loop at least

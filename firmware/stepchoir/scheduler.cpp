@@ -69,7 +69,7 @@ volatile uint8_t g_motor_fault;
 // g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
 const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
-const uint8_t kRaiseTicks = 14;  // burst(): from one raise to a merged next one (measured in simavr)
+const uint8_t kPairTicks = 11;  // burst(): from a pair's first raise to its second on another port (measured in simavr)
 // A timed strike on a sounding motor replaces an old edge due less than this before its time:
 // both would sound as one doubled step (a note change on the old note's own grid, as in a
 // legato melody, lands within a tick of an old edge). Far shorter than the command's hand-over
@@ -113,9 +113,13 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // g_order to g_played.
 //
 // How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
-// port and mask are loaded before its wait, so between two raises only a tick compare and the
-// port write remain (about 45 cycles). An edge due less than kMergeTicks after the previous one
-// is raised right after it, without a wait, and the previous one waits half the gap longer.
+// port and mask are loaded before its wait. An edge due less than kMergeTicks after the
+// previous one is raised with it as a pair, its port and mask loaded before the wait too: the
+// first one is raised half the gap (less kPairTicks) late and the second right after it (in
+// the same write when they share a port). Before pairs, a merged edge followed its partner
+// after a whole pass of the loop (60-90 cycles, not the 14 assumed), 4-5 us late. A pass of
+// the loop between two separate raises still takes 90-130 cycles (measured with
+// STEPCHOIR_VBOARD_PCTRACE): an edge due that soon after the previous raise comes late.
 // Interrupts are off from kCliLeadTicks before a raise until it is done, and stay off into the
 // next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
 // off longer than kMaxOffTicks: then a waiting UART byte is let in first.
@@ -136,15 +140,30 @@ __attribute__((noinline)) void burst() {
     Motor *m = g_order[i];
     const uint16_t t = (uint16_t)m->deadline;
     volatile uint8_t *const port = m->step_port;
-    const uint8_t mask = m->step_mask;
+    uint8_t mask = m->step_mask;
+    // A pair: the next edge due less than kMergeTicks after this one is raised together with
+    // it, its port and mask loaded before the wait (one write when they share a port).
+    volatile uint8_t *port2 = port;
+    uint8_t mask2 = 0;  // nonzero: a pair on two ports
+    bool pair = false;
     if (i == 0 || (uint16_t)(t - prev) >= cfg::kMergeTicks) {
       prev = t;
-      // With the next edge close behind, raise this one a little late and that one right after
-      // it, splitting the error between the two.
       uint16_t at = t;
       if (i + 1 < n) {
-        const uint16_t gap = (uint16_t)((uint16_t)g_order[i + 1]->deadline - t);
-        if (gap < cfg::kMergeTicks && gap > kRaiseTicks) at = (uint16_t)(t + ((gap - kRaiseTicks) >> 1));
+        const Motor *next = g_order[i + 1];
+        const uint16_t gap = (uint16_t)((uint16_t)next->deadline - t);
+        if (gap < cfg::kMergeTicks) {
+          // raise this one a little late and that one right after it, splitting the error
+          pair = true;
+          port2 = next->step_port;
+          mask2 = next->step_mask;
+          const uint8_t pair_ticks = port2 == port ? 0 : kPairTicks;
+          if (port2 == port) {
+            mask = (uint8_t)(mask | mask2);
+            mask2 = 0;
+          }
+          if (gap > pair_ticks) at = (uint16_t)(t + ((gap - pair_ticks) >> 1));
+        }
       }
       if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
         sei();
@@ -174,7 +193,12 @@ __attribute__((noinline)) void burst() {
       off_since = TCNT1;
     }
     *port |= mask;
+    if (mask2) *port2 |= mask2;  // the pair's second edge, on another port
     raised[i] = TCNT1;
+    if (pair) {
+      raised[i + 1] = raised[i];
+      ++i;
+    }
   }
   sei();
   for (; low < n; ++low) {
@@ -511,10 +535,11 @@ void silence_all() {
 // motor first, as its own next edge may follow soon. It returns when nothing is left to do and
 // the next edge is far enough to come back for it.
 // Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most 265 cycles (16.6 us, in burst()); one invocation up to 9,901 cycles
-// (uno) / 10,946 (mega) with interrupts on, while four or five motors play; CPU load 33 % (uno)
-// / 42 % (mega) with every motor sounding: about 1,500 cycles an edge, a third of them spent
-// waiting for the edge with interrupts on.
+// interrupts off at most 238 cycles with light traffic (at its entry, before the sei below),
+// 263 (16.4 us, in burst()) with frames back to back at full line speed; one invocation up to
+// 9,956 cycles (uno) / 13,981 (mega) with interrupts on, while four or five motors play; CPU
+// load 32 % (uno) / 41 % (mega) with every motor sounding: about 1,500 cycles an edge, a third
+// of them spent waiting for the edge with interrupts on.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs

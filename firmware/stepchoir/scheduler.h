@@ -14,7 +14,8 @@
 //   |--- I on -------|-- I off ---|------ I on -----|
 //   STEP  ____________________________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________
 //
-// Motors due within kComebackTicks of the previous edge are played in the same burst. Between
+// Motors due within kComebackTicks of the previous edge are played in the same burst; two due
+// less than kMergeTicks apart are raised as a pair (the error split between them). Between
 // bursts the ISR does its other work in small pieces, each only when no edge is due within
 // kSoonTicks: a played motor's next deadline and sorted place, a step's position and endstop
 // bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox.
