@@ -25,6 +25,7 @@
 #include "pitch.h"
 #include "player/plan.h"
 #include "song/song.h"
+#include "score.h"
 #include "trace.h"
 #include "vboard_process.h"
 
@@ -64,182 +65,22 @@ std::string write_test_song(const std::string &name) {
   return path;
 }
 
-// What the trace shows of a plan's notes, in real time.
-struct PlayedCheck {
-  size_t notes = 0, found = 0;
-  std::vector<double> onset_err_us;  // per note: first edge - the song's time on the board's line
-  double tempo_ppm = 0;              // the line's slope: song seconds -> real seconds, - 1
-  double max_release_late_us = 0;    // an edge after a note's end (+: the motor went on)
-  double max_release_early_us = 0;   // end - (last edge + one period) (+: the note stopped early)
-  double max_cents = 0;              // pitch error in real time, worst note
-  double max_spread_cents = 0;       // pitch error against the notes' median error (in tune together)
-  size_t turned = 0;                 // notes during which the motor turned round (no pitch measured)
-  std::string first_problem;
-};
-
-// Least-squares line y = a + b x. Called from: check_played.
-void fit_line(const std::vector<double> &x, const std::vector<double> &y, double *a, double *b) {
-  double mx = 0, my = 0;
-  for (size_t i = 0; i < x.size(); ++i) mx += x[i], my += y[i];
-  mx /= x.size(), my /= y.size();
-  double sxx = 0, sxy = 0;
-  for (size_t i = 0; i < x.size(); ++i) sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
-  *b = sxx > 0 ? sxy / sxx : 1.0;
-  *a = my - *b * mx;
+// A plan's notes as the score the trace is checked against (plan motor = board motor).
+std::vector<sc::trace::ScoreNote> score_of(const Plan &plan) {
+  std::vector<sc::trace::ScoreNote> out;
+  for (const PlannedNote &n : plan.notes) out.push_back({n.motor, n.on_s, n.off_s, n.pitch});
+  return out;
 }
 
-// Checks every planned note against the trace. The song's timeline on the board is the line
-// through the notes' onsets (the board's clock is the song's clock: a constant offset, and a
-// tempo the player took from the measured clock rate); each note must start on it (its first
-// rising edge: a silent motor starts on the time, a sounding one strikes on it), sound at its
-// pitch and stop at its end (no edge after it until the motor's next note).
-PlayedCheck check_played(const sc::trace::Trace &t, const Plan &plan) {
-  PlayedCheck c;
-  c.notes = plan.notes.size();
-  const double f = t.real_f_cpu_hz();
-  auto sec = [&](uint64_t cycle) { return static_cast<double>(cycle) / f; };
-  // Notes that start on a silent motor begin after a gap in its steps: unambiguous. The
-  // offset that lines the most of them up with such starts (within 5 ms) is the rough one;
-  // their onsets near it fix the line.
-  std::vector<size_t> fresh;
-  for (size_t k = 0; k < plan.notes.size(); ++k) {
-    bool silent_before = true;
-    for (size_t q = 0; q < k; ++q)
-      if (plan.notes[q].motor == plan.notes[k].motor && plan.notes[q].off_s > plan.notes[k].on_s - 0.02)
-        silent_before = false;
-    if (silent_before) fresh.push_back(k);
-  }
-  auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
-    std::vector<double> out;
-    const auto &s = t.motor.at(motor).steps;
-    for (size_t i = 0; i < s.size(); ++i)
-      if (i == 0 || sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle) > 0.015) out.push_back(sec(s[i].rise_cycle));
-    return out;
-  };
-  auto start_near = [&](size_t k, double offset, double tolerance, double *at) {
-    for (double x : starts(plan.notes[k].motor))
-      if (std::fabs(x - offset - plan.notes[k].on_s) < tolerance) return *at = x, true;
-    return false;
-  };
-  if (fresh.empty()) {
-    c.first_problem = "no note starts on a silent motor";
-    return c;
-  }
-  double rough = 0;
-  size_t best = 0;
-  for (double x : starts(plan.notes[fresh[0]].motor)) {
-    const double offset = x - plan.notes[fresh[0]].on_s;
-    size_t lined_up = 0;
-    double at;
-    for (size_t k : fresh) lined_up += start_near(k, offset, 0.005, &at);
-    if (lined_up > best) best = lined_up, rough = offset;
-  }
-  std::vector<double> xs, ys;
-  for (size_t k : fresh) {
-    double at;
-    if (start_near(k, rough, 0.005, &at)) xs.push_back(plan.notes[k].on_s), ys.push_back(at);
-  }
-  if (xs.size() < 2) {
-    c.first_problem = "fewer than two notes start on a silent motor";
-    return c;
-  }
-  double a = 0, b = 1;
-  fit_line(xs, ys, &a, &b);
-  // Every note's onset edge on that line, then the line again through all of them.
-  auto onset_edge = [&](const PlannedNote &n) -> long {
-    const auto &s = t.motor.at(n.motor).steps;
-    const double want = a + b * n.on_s - 0.00005;
-    const auto it = std::lower_bound(s.begin(), s.end(), want, [&](const sc::trace::Step &st, double v) {
-      return sec(st.rise_cycle) < v;
-    });
-    return it == s.end() ? -1 : static_cast<long>(it - s.begin());
-  };
-  xs.clear(), ys.clear();
-  for (const PlannedNote &n : plan.notes) {
-    const long i = onset_edge(n);
-    if (i >= 0) xs.push_back(n.on_s), ys.push_back(sec(t.motor[n.motor].steps[static_cast<size_t>(i)].rise_cycle));
-  }
-  fit_line(xs, ys, &a, &b);
-  c.tempo_ppm = (b - 1.0) * 1e6;
-  std::vector<double> cents;
-  for (size_t k = 0; k < plan.notes.size(); ++k) {
-    const PlannedNote &n = plan.notes[k];
-    const auto &s = t.motor[n.motor].steps;
-    const long i = onset_edge(n);
-    if (i < 0) {
-      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps";
-      continue;
-    }
-    auto board = [&](double song_s) { return a + b * song_s; };
-    const double err_us = (sec(s[static_cast<size_t>(i)].rise_cycle) - board(n.on_s)) * 1e6;
-    c.onset_err_us.push_back(err_us);
-    if (std::fabs(err_us) > 100 && c.first_problem.empty())
-      c.first_problem = "note " + std::to_string(k) + " (motor " + std::to_string(n.motor) + ", " +
-                        std::to_string(n.on_s) + " s): onset off by " + std::to_string(err_us) + " us";
-    // The note's edges: up to its end.
-    std::vector<uint64_t> edges;
-    size_t j = static_cast<size_t>(i);
-    for (; j < s.size() && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
-    if (edges.empty()) {  // the motor's next edge comes after the note's end: not played
-      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps while it lasts";
-      continue;
-    }
-    ++c.found;
-    const double hz = note_hz(n.pitch);
-    const double period_s = 1.0 / hz;
-    // A motor that reaches the end of its travel turns round: the steps around the turn are
-    // no measure of pitch (bounce-back is checked elsewhere).
-    bool turned = false;
-    for (const auto &d : t.motor[n.motor].dir_changes)
-      turned = turned || (d.cycle >= edges.front() && d.cycle <= edges.back());
-    c.turned += turned;
-    if (edges.size() >= 3 && !turned) {
-      const auto fit = sc::trace::fit_edges(edges, f / hz, f);
-      cents.push_back(fit.cents_error);
-      if (std::getenv("STEPCHOIR_TEST_NOTES"))
-        std::printf("note %zu motor %u %.4f-%.4f s pitch %.2f: onset %+.1f us, %zu edges, %+.4f cent\n", k, n.motor,
-                    n.on_s, n.off_s, n.pitch, err_us, edges.size(), fit.cents_error);
-      c.max_cents = std::max(c.max_cents, std::fabs(fit.cents_error));
-    }
-    const double last = sec(edges.back());
-    c.max_release_early_us = std::max(c.max_release_early_us, (board(n.off_s) - (last + period_s)) * 1e6);
-    // The motor's next note (if legato, it starts at this one's end).
-    double next_on = 1e9;
-    for (size_t q = k + 1; q < plan.notes.size(); ++q)
-      if (plan.notes[q].motor == n.motor) {
-        next_on = plan.notes[q].on_s;
-        break;
-      }
-    if (j < s.size()) {
-      const double after = sec(s[j].rise_cycle);
-      if (after < board(next_on) - 0.0005)
-        c.max_release_late_us = std::max(c.max_release_late_us, (after - board(n.off_s)) * 1e6);
-    }
-  }
-  if (!cents.empty()) {
-    std::vector<double> sorted = cents;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    for (double x : cents) c.max_spread_cents = std::max(c.max_spread_cents, std::fabs(x - sorted[sorted.size() / 2]));
-  }
-  return c;
-}
-
-// How much real time the virtual board lost (us): it paces simulated time to the wall clock,
-// and on a machine too busy to simulate in real time it falls behind and slips. Its clock
-// then runs slow against the host's for a moment, as no crystal does. From the trace's
-// summary; -1 when it has none.
-long pacing_slipped_us(const sc::trace::Trace &t) {
-  for (const std::string &line : t.summary_lines) {
-    const size_t at = line.find("pacing_slipped_us=");
-    if (at != std::string::npos) return std::atol(line.c_str() + at + 18);
-  }
-  return -1;
+// check_score on a plan; STEPCHOIR_TEST_NOTES=1 prints every note's figures.
+sc::trace::ScoreCheck check_played(const sc::trace::Trace &t, const Plan &plan) {
+  return sc::trace::check_score(t, score_of(plan), std::getenv("STEPCHOIR_TEST_NOTES") ? stdout : nullptr);
 }
 
 // Real-time figures (pitch against real time, tempo) mean something only when the virtual
 // board kept real time: fails the test with the reason otherwise (ctest runs it again).
 void require_real_time(const sc::trace::Trace &t) {
-  const long slipped = pacing_slipped_us(t);
+  const long slipped = sc::trace::pacing_slipped_us(t);
   INFO("the virtual board fell " << slipped << " us behind real time: the machine is too busy for a real-time check");
   REQUIRE(slipped >= 0);
   REQUIRE(slipped < 2000);
@@ -270,7 +111,7 @@ std::string run_stepchoir(const std::vector<std::string> &args, int *status) {
   return out;
 }
 
-void print_figures(const char *what, const PlayedCheck &c) {
+void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
   std::printf("%s: %zu notes turned round; ", what, c.turned);
   std::printf("%s: %zu/%zu notes, onset error p50 %.1f us p99 %.1f us max %.1f us, tempo %+.1f ppm, pitch worst "
               "%.4f cent (%.4f cent from the others), release: late %.1f us, early %.1f us\n",
@@ -280,8 +121,8 @@ void print_figures(const char *what, const PlayedCheck &c) {
 
 // The checks every played song passes: every planned note found, every onset within 100 us of
 // the song's line, every note in tune with the others within 0.05 cent. Returns the figures.
-PlayedCheck check_song(const char *what, const sc::trace::Trace &t, const Plan &plan) {
-  const PlayedCheck c = check_played(t, plan);
+sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace &t, const Plan &plan) {
+  const sc::trace::ScoreCheck c = check_played(t, plan);
   print_figures(what, c);
   INFO(c.first_problem);
   CHECK(c.found == c.notes);
@@ -325,7 +166,7 @@ TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with t
   const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
   CHECK(plan.unplayed.empty());
   REQUIRE(plan.notes.size() == 16 + 4 + 4);
-  const PlayedCheck c = check_song("play, host stalled", t, plan);
+  const sc::trace::ScoreCheck c = check_song("play, host stalled", t, plan);
   std::printf("play, host stalled: %d stalls of 20-80 ms\n", stalls);
   CHECK(stalls > 10);
   CHECK(std::fabs(c.tempo_ppm) < 1000.0);  // the song's tempo within 0.1 %
@@ -347,7 +188,7 @@ TEST_CASE("play: a crystal 0.5 % off still plays in tune in real time (auto-tune
     require_real_time(t);
     REQUIRE(t.clock_ppm == Approx(std::atof(ppm)));
     const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
-    const PlayedCheck c = check_song((std::string("play, clock ") + ppm + " ppm").c_str(), t, plan);
+    const sc::trace::ScoreCheck c = check_song((std::string("play, clock ") + ppm + " ppm").c_str(), t, plan);
     CHECK(c.max_cents < 1.0);
     CHECK(std::fabs(c.tempo_ppm) < 1000.0);
   }
@@ -362,7 +203,7 @@ TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the che
   REQUIRE(status == 0);
   const auto t = sc::trace::read_trace(trace_path);
   require_real_time(t);
-  const PlayedCheck c = check_played(t, plan_for(song, static_cast<size_t>(t.motors)));
+  const sc::trace::ScoreCheck c = check_played(t, plan_for(song, static_cast<size_t>(t.motors)));
   CHECK(c.max_cents == Approx(1200 * std::log2(1.005)).margin(1.0));
   CHECK(c.max_spread_cents < 0.05);
 }
@@ -386,7 +227,7 @@ TEST_CASE("render: a sample song through the firmware as fast as it runs, to a W
   const auto t = sc::trace::read_trace(trace_path);
   const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
   CHECK(plan.unplayed.empty());
-  const PlayedCheck c = check_song("render", t, plan);
+  const sc::trace::ScoreCheck c = check_song("render", t, plan);
   std::printf("render: %.1f s of song in %.1f s\n", plan.duration_s, wall_s);
   CHECK(std::fabs(c.tempo_ppm) < 50.0);  // board time: the nominal clock exactly
   CHECK(c.max_cents < 0.05);
@@ -420,7 +261,7 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
                                   [&](const PlannedNote &n) { return n.on_s < song_s - 3.0; }),
                    plan.notes.end());
   REQUIRE(plan.notes.size() >= 5);
-  const PlayedCheck c = check_song("play, after the board came back", t, plan);
+  const sc::trace::ScoreCheck c = check_song("play, after the board came back", t, plan);
   CHECK(c.max_cents < 1.0);
 }
 
@@ -539,7 +380,7 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   // The song: every note of its plan on motors 0 and 1, on time and in tune, nothing else there.
   const Plan plan = plan_for(song, 2, 1.0, {1, 2});
   REQUIRE(plan.unplayed.empty());
-  const PlayedCheck c = check_song("jam, the song", t, plan);
+  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan);
   CHECK(c.max_release_late_us < 100.0);
   // The keyboard: each key's note on motor 2 or 3 at its pitch, for about as long as it was held.
   std::vector<sc::trace::NoteSegment> live;
@@ -604,12 +445,13 @@ TEST_CASE("play: a black-MIDI file (every key at once, 3,000 notes a second) end
   const auto t = sc::trace::read_trace(trace_path);
   const Plan plan = plan_for(song, static_cast<size_t>(t.motors));
   CHECK(plan.notes.size() > 500);
-  print_figures("black MIDI", check_played(t, plan));
-  uint64_t last_step = 0;
-  for (const auto &m : t.motor) last_step = m.steps.empty() ? last_step : std::max(last_step, m.steps.back().rise_cycle);
-  for (const auto &m : t.motor) {
-    if (m.steps.empty()) continue;
-    CHECK(t.end_cycle - m.steps.back().rise_cycle > 0);
+  const sc::trace::ScoreCheck c = check_played(t, plan);
+  print_figures("black MIDI", c);
+  // No step after the song's end (its last note's end on the board's line, plus a millisecond).
+  const double song_end_s = c.line_offset_s + plan.duration_s * (1 + c.tempo_ppm / 1e6);
+  for (size_t m = 0; m < t.motor.size(); ++m) {
+    INFO("motor " << m);
+    if (!t.motor[m].steps.empty()) CHECK(t.real_seconds(t.motor[m].steps.back().rise_cycle) < song_end_s + 0.001);
   }
-  CHECK(t.end_cycle - last_step > static_cast<uint64_t>(0.1 * t.f_cpu_hz));  // silent for the run's last 100 ms at least
+  CHECK(t.real_seconds(t.end_cycle) > song_end_s);  // the run went on past it
 }

@@ -1,0 +1,170 @@
+// score.cpp: checking a trace against a score, note by note.
+#include "score.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "analysis.h"
+
+namespace sc {
+namespace trace {
+
+namespace {
+
+// Least-squares line y = a + b x. Called from: check_score.
+void fit_line(const std::vector<double> &x, const std::vector<double> &y, double *a, double *b) {
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < x.size(); ++i) mx += x[i], my += y[i];
+  mx /= x.size(), my /= y.size();
+  double sxx = 0, sxy = 0;
+  for (size_t i = 0; i < x.size(); ++i) sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
+  *b = sxx > 0 ? sxy / sxx : 1.0;
+  *a = my - *b * mx;
+}
+
+}  // namespace
+
+ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std::FILE *detail) {
+  ScoreCheck c;
+  c.notes = notes.size();
+  const double f = t.real_f_cpu_hz();
+  auto sec = [&](uint64_t cycle) { return static_cast<double>(cycle) / f; };
+  // Notes that start on a silent motor begin after a gap in its steps: unambiguous. The
+  // offset that lines the most of them up with such starts (within 5 ms) is the rough one;
+  // their onsets near it fix the line.
+  std::vector<size_t> fresh;
+  for (size_t k = 0; k < notes.size(); ++k) {
+    bool silent_before = true;
+    for (size_t q = 0; q < k; ++q)
+      if (notes[q].motor == notes[k].motor && notes[q].off_s > notes[k].on_s - 0.02)
+        silent_before = false;
+    if (silent_before) fresh.push_back(k);
+  }
+  auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
+    std::vector<double> out;
+    const auto &s = t.motor.at(motor).steps;
+    for (size_t i = 0; i < s.size(); ++i)
+      if (i == 0 || sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle) > 0.015) out.push_back(sec(s[i].rise_cycle));
+    return out;
+  };
+  auto start_near = [&](size_t k, double offset, double tolerance, double *at) {
+    for (double x : starts(notes[k].motor))
+      if (std::fabs(x - offset - notes[k].on_s) < tolerance) return *at = x, true;
+    return false;
+  };
+  if (fresh.empty()) {
+    c.first_problem = "no note starts on a silent motor";
+    return c;
+  }
+  double rough = 0;
+  size_t best = 0;
+  for (double x : starts(notes[fresh[0]].motor)) {
+    const double offset = x - notes[fresh[0]].on_s;
+    size_t lined_up = 0;
+    double at;
+    for (size_t k : fresh) lined_up += start_near(k, offset, 0.005, &at);
+    if (lined_up > best) best = lined_up, rough = offset;
+  }
+  std::vector<double> xs, ys;
+  for (size_t k : fresh) {
+    double at;
+    if (start_near(k, rough, 0.005, &at)) xs.push_back(notes[k].on_s), ys.push_back(at);
+  }
+  if (xs.size() < 2) {
+    c.first_problem = "fewer than two notes start on a silent motor";
+    return c;
+  }
+  double a = 0, b = 1;
+  fit_line(xs, ys, &a, &b);
+  // Every note's onset edge on that line, then the line again through all of them.
+  auto onset_edge = [&](const ScoreNote &n) -> long {
+    const auto &s = t.motor.at(n.motor).steps;
+    const double want = a + b * n.on_s - 0.00005;
+    const auto it = std::lower_bound(s.begin(), s.end(), want, [&](const Step &st, double v) {
+      return sec(st.rise_cycle) < v;
+    });
+    return it == s.end() ? -1 : static_cast<long>(it - s.begin());
+  };
+  xs.clear(), ys.clear();
+  for (const ScoreNote &n : notes) {
+    const long i = onset_edge(n);
+    if (i >= 0) xs.push_back(n.on_s), ys.push_back(sec(t.motor[n.motor].steps[static_cast<size_t>(i)].rise_cycle));
+  }
+  fit_line(xs, ys, &a, &b);
+  c.tempo_ppm = (b - 1.0) * 1e6;
+  c.line_offset_s = a;
+  std::vector<double> cents;
+  for (size_t k = 0; k < notes.size(); ++k) {
+    const ScoreNote &n = notes[k];
+    const auto &s = t.motor[n.motor].steps;
+    const long i = onset_edge(n);
+    if (i < 0) {
+      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps";
+      continue;
+    }
+    auto board = [&](double song_s) { return a + b * song_s; };
+    const double err_us = (sec(s[static_cast<size_t>(i)].rise_cycle) - board(n.on_s)) * 1e6;
+    c.onset_err_us.push_back(err_us);
+    if (std::fabs(err_us) > 100 && c.first_problem.empty())
+      c.first_problem = "note " + std::to_string(k) + " (motor " + std::to_string(n.motor) + ", " +
+                        std::to_string(n.on_s) + " s): onset off by " + std::to_string(err_us) + " us";
+    // The note's edges: up to its end.
+    std::vector<uint64_t> edges;
+    size_t j = static_cast<size_t>(i);
+    for (; j < s.size() && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
+    if (edges.empty()) {  // the motor's next edge comes after the note's end: not played
+      if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps while it lasts";
+      continue;
+    }
+    ++c.found;
+    const double hz = hz_from_midi(n.midi_note);
+    const double period_s = 1.0 / hz;
+    // A motor that reaches the end of its travel turns round: the steps around the turn are
+    // no measure of pitch (bounce-back is checked elsewhere).
+    bool turned = false;
+    for (const auto &d : t.motor[n.motor].dir_changes)
+      turned = turned || (d.cycle >= edges.front() && d.cycle <= edges.back());
+    c.turned += turned;
+    if (edges.size() >= 3 && !turned) {
+      const auto fit = fit_edges(edges, f / hz, f);
+      cents.push_back(fit.cents_error);
+      if (detail)
+        std::fprintf(detail, "note %zu motor %zu %.4f-%.4f s pitch %.2f: onset %+.1f us, %zu edges, %+.4f cent\n", k,
+                     n.motor, n.on_s, n.off_s, n.midi_note, err_us, edges.size(), fit.cents_error);
+      c.max_cents = std::max(c.max_cents, std::fabs(fit.cents_error));
+    }
+    const double last = sec(edges.back());
+    c.max_release_early_us = std::max(c.max_release_early_us, (board(n.off_s) - (last + period_s)) * 1e6);
+    // The motor's next note (if legato, it starts at this one's end).
+    double next_on = 1e9;
+    for (size_t q = k + 1; q < notes.size(); ++q)
+      if (notes[q].motor == n.motor) {
+        next_on = notes[q].on_s;
+        break;
+      }
+    if (j < s.size()) {
+      const double after = sec(s[j].rise_cycle);
+      if (after < board(next_on) - 0.0005)
+        c.max_release_late_us = std::max(c.max_release_late_us, (after - board(n.off_s)) * 1e6);
+    }
+  }
+  if (!cents.empty()) {
+    std::vector<double> sorted = cents;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    for (double x : cents) c.max_spread_cents = std::max(c.max_spread_cents, std::fabs(x - sorted[sorted.size() / 2]));
+  }
+  return c;
+}
+
+
+long pacing_slipped_us(const Trace &t) {
+  for (const std::string &line : t.summary_lines) {
+    const size_t at = line.find("pacing_slipped_us=");
+    if (at != std::string::npos) return std::atol(line.c_str() + at + 18);
+  }
+  return -1;
+}
+
+}  // namespace trace
+}  // namespace sc
