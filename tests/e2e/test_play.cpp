@@ -455,3 +455,45 @@ TEST_CASE("play: a black-MIDI file (every key at once, 3,000 notes a second) end
   }
   CHECK(t.real_seconds(t.end_cycle) > song_end_s);  // the run went on past it
 }
+
+TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors right", "[play]") {
+  const std::string song = write_test_song("play-loop.mid");  // 3.6 s
+  const std::string trace_path = scratch("play-loop.csv");
+  ChildProcess play({STEPCHOIR_BIN, "play", song, "--loop", "--vboard", "uno", "--vboard-trace", trace_path, "--quiet"},
+                    true);
+  std::string line;
+  REQUIRE(play.read_line(&line, 20000));  // "play: no --port: ..."
+  std::this_thread::sleep_for(std::chrono::milliseconds(2300));  // sync, lead, a second of song
+  kill(play.pid(), SIGUSR1);                                      // pause
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(play.pid(), SIGUSR1);                                      // resume
+  std::this_thread::sleep_for(std::chrono::milliseconds(4500));   // the rest, and into the second time
+  const int rc = play.signal_and_wait(SIGINT);
+  const std::string out = play.read_rest(5000);
+  INFO(out);
+  CHECK(rc == 0);
+  CHECK(out.find("stopped, every motor silent") != std::string::npos);
+  const auto t = sc::trace::read_trace(trace_path);
+  // All steps of all motors in time order: the pause is the one long silence.
+  std::vector<uint64_t> all;
+  for (const auto &m : t.motor)
+    for (const auto &st : m.steps) all.push_back(st.rise_cycle);
+  std::sort(all.begin(), all.end());
+  REQUIRE(all.size() > 100);
+  double longest_gap_s = 0;
+  for (size_t i = 1; i < all.size(); ++i)
+    longest_gap_s = std::max(longest_gap_s, static_cast<double>(all[i] - all[i - 1]) / t.f_cpu_hz);
+  CHECK(longest_gap_s > 1.2);  // paused for 1.5 s (less the lead it takes to come back)
+  CHECK(longest_gap_s < 2.0);
+  // Looped: the melody's first note (C5, on at 0 s) sounds at least twice, the song is longer
+  // played than it lasts.
+  size_t c5 = 0;
+  for (const auto &m : t.motor)
+    for (const auto &seg : sc::trace::segment_notes(m.steps, t.f_cpu_hz)) c5 += std::fabs(seg.midi_note - 72) < 0.05;
+  CHECK(c5 >= 4);  // C5 is in the melody three times: twice a loop at least
+  const double played_s = static_cast<double>(all.back() - all.front()) / t.f_cpu_hz;
+  CHECK(played_s > 3.6 + 1.2);
+  // Ctrl-C: nothing steps after the silence the player sends at once (the virtual board ran on
+  // until the player had exited and stopped it).
+  CHECK(t.end_cycle - all.back() > static_cast<uint64_t>(0.002 * t.f_cpu_hz));
+}

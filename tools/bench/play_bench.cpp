@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "analysis.h"
 #include "child_process.h"
 #include "player/plan.h"
 #include "score.h"
