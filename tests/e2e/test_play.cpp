@@ -497,3 +497,28 @@ TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors r
   // until the player had exited and stopped it).
   CHECK(t.end_cycle - all.back() > static_cast<uint64_t>(0.002 * t.f_cpu_hz));
 }
+
+TEST_CASE("render: the three sample songs play through the firmware, every note on time", "[play]") {
+  // Canon (2:18) four times as fast, the others as written.
+  for (const auto &[name, tempo] : std::vector<std::pair<std::string, std::string>>{
+           {"9th.sng", "1"}, {"canon.sng", "4"}, {"furelise.sng", "1"}}) {
+    INFO(name);
+    const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/" + name;
+    const std::string trace_path = scratch("render-" + name + ".csv");
+    int status = -1;
+    const std::string out = run_stepchoir(
+        {"render", song, "--tempo", tempo, "-o", scratch("render-" + name + ".wav"), "--trace", trace_path}, &status);
+    INFO(out);
+    REQUIRE(status == 0);
+    const auto t = sc::trace::read_trace(trace_path);
+    PlanOptions o;
+    o.tempo_scale = std::atof(tempo.c_str());
+    o.motors.assign(static_cast<size_t>(t.motors), MotorConfig{});
+    const Plan plan = plan_song(read_song_file(song), o);
+    CHECK(plan.unplayed.empty());
+    const sc::trace::ScoreCheck c = check_song(("render " + name).c_str(), t, plan);
+    CHECK(c.max_cents < 0.05);
+    CHECK(c.max_release_late_us < 100.0);
+    CHECK(c.max_release_early_us < 100.0);
+  }
+}

@@ -240,3 +240,14 @@ TEST_CASE("plan: a chord sounds on as many motors, and the events of one time st
   CHECK(ev[0].motor != ev[1].motor);
   CHECK(ev[1].motor != ev[2].motor);
 }
+
+TEST_CASE("plan: a note's end and the next one's start meet even when their sums round apart", "[player]") {
+  // 0.1 + 0.2 is 0.30000000000000004 in doubles: still legato, no silence between.
+  SongNote a = note(0.1, 0.2, 60), b = note(0.3, 0.5, 62);
+  const Plan p = plan_song(song_of({a, b}), motors(1));
+  const auto ev = plan_events(p);
+  REQUIRE(ev.size() == 3);
+  CHECK_FALSE(ev[0].silent);
+  CHECK_FALSE(ev[1].silent);
+  CHECK(ev[2].silent);
+}

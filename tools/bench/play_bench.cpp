@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <random>
 #include <string>
@@ -49,16 +50,20 @@ std::string bin_dir() {
 }  // namespace
 
 int main(int argc, char **argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: stepchoir-bench-play OUT_DIR SONGS_DIR\n");
+  if (argc != 3 && argc != 4) {
+    std::fprintf(stderr, "usage: stepchoir-bench-play OUT_DIR SONGS_DIR [CASE]\n"
+                         "  CASE: run only that row (0-4), printing every note's figures\n");
     return 2;
   }
+  const int only = argc == 4 ? std::atoi(argv[3]) : -1;
   const std::string out_dir = argv[1], songs = argv[2];
   const std::vector<Case> cases = {{"furelise.sng", "uno", 0, false},     {"9th.sng", "mega", 0, false},
                                    {"furelise.sng", "mega", 5000, false}, {"furelise.sng", "mega", -5000, false},
                                    {"furelise.sng", "uno", 0, true}};
   std::string table;
-  for (const Case &c : cases) {
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    const Case &c = cases[ci];
+    if (only >= 0 && static_cast<size_t>(only) != ci) continue;
     const std::string song = songs + "/" + c.song;
     const std::string trace_path = "/tmp/stepchoir-bench-play-" + std::to_string(getpid()) + ".csv";
     ChildProcess play({bin_dir() + "/stepchoir", "play", song, "--vboard", c.board, "--clock-ppm",
@@ -92,7 +97,8 @@ int main(int argc, char **argv) {
     const stepchoir::Plan plan = stepchoir::plan_song(stepchoir::read_song_file(song), o);
     std::vector<sc::trace::ScoreNote> score;
     for (const auto &n : plan.notes) score.push_back({n.motor, n.on_s, n.off_s, n.pitch});
-    const sc::trace::ScoreCheck r = sc::trace::check_score(t, score);
+    const sc::trace::ScoreCheck r = sc::trace::check_score(t, score, only >= 0 ? stdout : nullptr);
+    if (only >= 0) std::printf("%s", said.c_str());
     char row[512];
     std::snprintf(row, sizeof row,
                   "| %s | %s | %+d | %s | %zu/%zu | %.1f | %.1f | %.1f | %+.1f | %.4f | %.4f | %.1f | %.1f | %ld |\n",
@@ -104,6 +110,7 @@ int main(int argc, char **argv) {
     std::fflush(stdout);
     table += row;
   }
+  if (only >= 0) return 0;
   const std::string path = out_dir + "/play-onsets.md";
   FILE *f = std::fopen(path.c_str(), "w");
   if (!f) {

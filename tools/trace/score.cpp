@@ -30,22 +30,26 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
   c.notes = notes.size();
   const double f = t.real_f_cpu_hz();
   auto sec = [&](uint64_t cycle) { return static_cast<double>(cycle) / f; };
-  // Notes that start on a silent motor begin after a gap in its steps: unambiguous. The
-  // offset that lines the most of them up with such starts (within 5 ms) is the rough one;
-  // their onsets near it fix the line.
+  // Notes that start on a silent motor (for at least 8 ms, a restrike's gap included) begin
+  // after a gap in its steps: unambiguous. The offset that lines the most of them up with such
+  // starts (within 5 ms) is the rough one; their onsets near it fix the line (with one only,
+  // the tempo is taken as exact).
   std::vector<size_t> fresh;
   for (size_t k = 0; k < notes.size(); ++k) {
     bool silent_before = true;
     for (size_t q = 0; q < k; ++q)
-      if (notes[q].motor == notes[k].motor && notes[q].off_s > notes[k].on_s - 0.02)
+      if (notes[q].motor == notes[k].motor && notes[q].off_s > notes[k].on_s - 0.008)
         silent_before = false;
     if (silent_before) fresh.push_back(k);
   }
   auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
     std::vector<double> out;
     const auto &s = t.motor.at(motor).steps;
-    for (size_t i = 0; i < s.size(); ++i)
-      if (i == 0 || sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle) > 0.015) out.push_back(sec(s[i].rise_cycle));
+    for (size_t i = 0; i < s.size(); ++i) {
+      const double gap = i == 0 ? 1e9 : sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle);
+      const double before = i < 2 ? 0 : sec(s[i - 1].rise_cycle) - sec(s[i - 2].rise_cycle);
+      if (gap > 0.008 && gap > 1.5 * before) out.push_back(sec(s[i].rise_cycle));
+    }
     return out;
   };
   auto start_near = [&](size_t k, double offset, double tolerance, double *at) {
@@ -71,12 +75,12 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     double at;
     if (start_near(k, rough, 0.005, &at)) xs.push_back(notes[k].on_s), ys.push_back(at);
   }
-  if (xs.size() < 2) {
-    c.first_problem = "fewer than two notes start on a silent motor";
+  if (xs.empty()) {
+    c.first_problem = "no note starts on a silent motor where the trace shows one";
     return c;
   }
-  double a = 0, b = 1;
-  fit_line(xs, ys, &a, &b);
+  double a = ys[0] - xs[0], b = 1;
+  if (xs.size() >= 2) fit_line(xs, ys, &a, &b);
   // Every note's onset edge on that line, then the line again through all of them.
   auto onset_edge = [&](const ScoreNote &n) -> long {
     const auto &s = t.motor.at(n.motor).steps;
@@ -126,14 +130,16 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     for (const auto &d : t.motor[n.motor].dir_changes)
       turned = turned || (d.cycle >= edges.front() && d.cycle <= edges.back());
     c.turned += turned;
+    double cents_error = 0;
     if (edges.size() >= 3 && !turned) {
-      const auto fit = fit_edges(edges, f / hz, f);
-      cents.push_back(fit.cents_error);
-      if (detail)
-        std::fprintf(detail, "note %zu motor %zu %.4f-%.4f s pitch %.2f: onset %+.1f us, %zu edges, %+.4f cent\n", k,
-                     n.motor, n.on_s, n.off_s, n.midi_note, err_us, edges.size(), fit.cents_error);
-      c.max_cents = std::max(c.max_cents, std::fabs(fit.cents_error));
+      cents_error = fit_edges(edges, f / hz, f).cents_error;
+      cents.push_back(cents_error);
+      c.max_cents = std::max(c.max_cents, std::fabs(cents_error));
     }
+    if (detail)
+      std::fprintf(detail, "note %zu motor %zu %.4f-%.4f s pitch %.2f: onset %+.1f us, %zu edges%s, %+.4f cent, ends %.1f us early\n",
+                   k, n.motor, n.on_s, n.off_s, n.midi_note, err_us, edges.size(), turned ? " (turned round)" : "",
+                   cents_error, (board(n.off_s) - (sec(edges.back()) + period_s)) * 1e6);
     const double last = sec(edges.back());
     c.max_release_early_us = std::max(c.max_release_early_us, (board(n.off_s) - (last + period_s)) * 1e6);
     // The motor's next note (if legato, it starts at this one's end).

@@ -134,9 +134,12 @@ Plan plan_song(const Song &song, const PlanOptions &o) {
 std::vector<PlanEvent> plan_events(const Plan &plan) {
   std::vector<PlanEvent> ev;
   ev.reserve(plan.notes.size() * 2);
+  // Times to 0.1 us: a note's end and the next one's start, computed from different sums,
+  // may differ in the last bits of a double and must still meet.
+  auto q = [](double t) { return std::round(t * 1e7) / 1e7; };
   for (const PlannedNote &n : plan.notes) {
-    ev.push_back({n.on_s, n.motor, false, n.pitch});
-    ev.push_back({n.off_s, n.motor, true, 0});
+    ev.push_back({q(n.on_s), n.motor, false, n.pitch});
+    ev.push_back({q(n.off_s), n.motor, true, 0});
   }
   // By time, motor; at one time and motor a silence goes before a note, so that dropping it
   // below leaves the note.
@@ -150,7 +153,7 @@ std::vector<PlanEvent> plan_events(const Plan &plan) {
   for (size_t i = 0; i < ev.size(); ++i) {
     const PlanEvent &e = ev[i];
     if (e.silent && i + 1 < ev.size() && ev[i + 1].motor == e.motor && !ev[i + 1].silent &&
-        std::fabs(ev[i + 1].time_s - e.time_s) < 1e-9)
+        ev[i + 1].time_s == e.time_s)
       continue;
     out.push_back(e);
   }

@@ -33,6 +33,12 @@ namespace {
 
 std::atomic<bool> g_pause{false};
 
+// render: the virtual board runs at most this many times real time (this machine simulates
+// four sounding motors at about 4x), and the song goes to it this far ahead (board time): a
+// host stalled for up to half a second still keeps ahead of it.
+constexpr double kRenderSpeed = 2.0;
+constexpr double kRenderLeadS = 1.0;
+
 // "1:05" for 65 s. Called from: the progress line.
 std::string clock_text(double s) {
   const int total = static_cast<int>(std::max(0.0, s));
@@ -236,7 +242,9 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       // No per-instruction interrupt accounting: a faster simulation keeps real time on a busy
       // machine and renders sooner.
       std::vector<std::string> extra{"--no-measure"};
-      if (rendering) extra.push_back("--no-pacing");
+      // Render: as fast as the simulation runs, up to kRenderSpeed times real time, so that a
+      // host stalled for a moment still keeps ahead of the board.
+      if (rendering) extra.insert(extra.end(), {"--speed", std::to_string(kRenderSpeed)});
       if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
       vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
       if (!rendering)
@@ -286,7 +294,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     po.motors = song_ids;
     po.exclusive = !jamming;
     po.board_time = rendering;
-    po.lead_s = lead_ms / 1e3;
+    po.lead_s = rendering ? kRenderLeadS : lead_ms / 1e3;
     po.sync_s = sync_s;
     po.loop = loop && !rendering;
     po.auto_tune = !no_auto_tune;

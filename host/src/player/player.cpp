@@ -331,8 +331,11 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
 
 bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
                  const std::function<void(const PlayerProgress &)> &on_progress) {
+  // The motors stop by themselves if this program dies. Not in board-time mode: the simulated
+  // board runs several times faster than real time, so a host stalled for a moment would
+  // starve its watchdog; it is this program's own child and ends with it anyway.
   uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
-  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
+  sc::put_u16(&wd[1], opt_.board_time ? 0 : sc::kWatchdogDefaultMs);
   send_payload({wd, wd + 3});
   if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, true, stop)) {
     silence();

@@ -120,7 +120,7 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   const uint64_t chunk_cycles = board.f_cpu_hz / 1000000 * kChunkUs;
   const uint64_t end_cycle =
       options.seconds > 0 ? static_cast<uint64_t>(std::llround(options.seconds * board.f_cpu_hz)) : UINT64_MAX;
-  Pacer pacer(board.f_cpu_hz, options.clock_ppm, kMaxCatchupNs);
+  Pacer pacer(board.f_cpu_hz * options.speed, options.clock_ppm, kMaxCatchupNs);
   const uint64_t start_wall_ns = monotonic_ns();
   pacer.start(avr.cycle(), start_wall_ns);
   avr.set_end_cycle(end_cycle);

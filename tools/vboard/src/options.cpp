@@ -36,7 +36,7 @@ bool parse_real(const std::string &text, double &value) {
 // Usage text.
 const char *usage_text() {
   return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
-         "          [--no-pacing] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
+         "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
          "          [--trace-frames] [--no-measure] [--exit-with-parent] [--quiet]\n"
@@ -45,6 +45,7 @@ const char *usage_text() {
          "  --link PATH         symlink to the pty, removed on exit\n"
          "  --clock-ppm N       crystal error: the board runs 16e6*(1+N/1e6) cycles per second\n"
          "  --no-pacing         run as fast as possible instead of in real time\n"
+         "  --speed X           run X times as fast as real time (as far as the machine can)\n"
          "  --seconds S         stop after S simulated seconds (default: until SIGINT/SIGTERM)\n"
          "  --trace FILE        CSV of step/dir/enable/endstop/bounce events\n"
          "  --travel-steps N    rail length (default 3200); --start-position N (default N/2)\n"
@@ -97,6 +98,12 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
       }
     } else if (arg == "--no-pacing") {
       options.pacing = false;
+    } else if (arg == "--speed") {
+      if (!value_of(value)) return false;
+      if (!parse_real(value, options.speed) || !(options.speed >= 0.01 && options.speed <= 1000)) {
+        error = "--speed needs a number between 0.01 and 1000";
+        return false;
+      }
     } else if (arg == "--seconds") {
       if (!value_of(value)) return false;
       if (!parse_real(value, options.seconds) || options.seconds <= 0) {

@@ -15,6 +15,7 @@ struct Options {
   std::string trace_path;  // empty = no trace
   double clock_ppm = 0;
   bool pacing = true;
+  double speed = 1.0;  // pacing: simulated seconds per wall second
   double seconds = 0;  // 0 = until SIGINT/SIGTERM
   int64_t travel_steps = 3200;
   int64_t start_position_steps = 0;
