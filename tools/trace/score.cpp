@@ -40,6 +40,7 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     for (size_t q = 0; q < k; ++q)
       if (notes[q].motor == notes[k].motor && notes[q].off_s > notes[k].on_s - 0.008)
         silent_before = false;
+    if (notes[k].after_silence >= 0) silent_before = notes[k].after_silence == 1;
     if (silent_before) fresh.push_back(k);
   }
   auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
@@ -61,14 +62,28 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     c.first_problem = "no note starts on a silent motor";
     return c;
   }
+  // Whether the motor steps at note k's pitch (within 2 %) in the middle of it, for an offset.
+  auto sounds_right = [&](size_t k, double offset) {
+    const auto &s = t.motor.at(notes[k].motor).steps;
+    const double mid = offset + 0.5 * (notes[k].on_s + notes[k].off_s);
+    const auto it = std::lower_bound(s.begin(), s.end(), mid, [&](const Step &st, double v) { return sec(st.rise_cycle) < v; });
+    if (it == s.begin() || it == s.end()) return false;
+    const double interval = sec(it->rise_cycle) - sec((it - 1)->rise_cycle);
+    return std::fabs(interval * hz_from_midi(notes[k].midi_note) - 1.0) < 0.02;
+  };
+  // Candidates: every start after a gap on the first fresh note's motor. The one under which
+  // the most fresh notes start on time and then the most notes sound at their pitch wins (a
+  // repeating bass line alone would line up at several offsets).
   double rough = 0;
   size_t best = 0;
   for (double x : starts(notes[fresh[0]].motor)) {
     const double offset = x - notes[fresh[0]].on_s;
-    size_t lined_up = 0;
+    size_t lined_up = 0, in_tune = 0;
     double at;
     for (size_t k : fresh) lined_up += start_near(k, offset, 0.005, &at);
-    if (lined_up > best) best = lined_up, rough = offset;
+    for (size_t k = 0; k < notes.size(); ++k) in_tune += sounds_right(k, offset);
+    const size_t score = lined_up * (notes.size() + 1) + in_tune;
+    if (score > best) best = score, rough = offset;
   }
   std::vector<double> xs, ys;
   for (size_t k : fresh) {

@@ -19,6 +19,10 @@ struct ScoreNote {
   size_t motor = 0;
   double on_s = 0, off_s = 0;
   double midi_note = 0;
+  // 1: the motor was silent (at least 8 ms) before this note, 0: it follows another note;
+  // -1: check_score works it out from the notes it is given (give it when they are a part of
+  // a song).
+  int after_silence = -1;
 };
 
 // What the trace shows of the score's notes, in real time (cycles / the simulated crystal's
