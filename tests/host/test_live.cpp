@@ -487,3 +487,37 @@ TEST_CASE("live: in Debug builds an allocation inside real-time code aborts", "[
   CHECK(WIFSIGNALED(status));
   CHECK(WTERMSIG(status) == SIGABRT);
 }
+
+TEST_CASE("live: jam - a live note goes out ahead of song frames already waiting", "[live]") {
+  FakeLink link;
+  const LiveBoard board{&link, 2, kF, {2, 3}};
+  LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
+  s.start();
+  // 60 song frames queued at once: the writer sends them as the link budget allows (one every
+  // millisecond or so), keeping half a burst free.
+  for (int i = 0; i < 60; ++i) {
+    std::vector<uint8_t> p{sc::kMsgAt, 0, 0, 0, 0};
+    sc::put_u32(&p[1], static_cast<uint32_t>(i));
+    const auto e = periods_payload({{0, static_cast<uint32_t>(1000 + i)}});
+    p.insert(p.end(), e.begin(), e.end());
+    const auto wire = frame(p);
+    REQUIRE(s.send_song_frame(0, wire.data(), wire.size()));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(eventually([&] {
+    size_t at = 0;
+    for (const auto &f : link.frames()) at += f[0] == sc::kMsgAt;
+    return at == 60;
+  }));
+  s.stop();
+  // Where the live note went out among the song frames: well before the last of them.
+  size_t song_before = 0;
+  bool live_seen = false;
+  for (const auto &f : link.frames()) {
+    if ((f[0] & sc::kSetPeriodFlag) && !live_seen) live_seen = true;
+    if (f[0] == sc::kMsgAt && !live_seen) ++song_before;
+  }
+  REQUIRE(live_seen);
+  CHECK(song_before < 30);
+}
