@@ -26,12 +26,6 @@ constexpr double kQueueFreeAfterS = 0.01;
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;
 constexpr size_t kBoardTimeWindow = 16;
-// The timeline follows the clock fit's rate this often, when they differ by this much, by at
-// most kRateMaxStepPpm a time: a crystal drifts by a few ppm over minutes, while a round-trip
-// hiccup or a stalled virtual board can swing the fit far more for a moment.
-constexpr double kRateEveryS = 2.0;
-constexpr double kRateStepPpm = 2.0;
-constexpr double kRateMaxStepPpm = 10.0;
 
 }  // namespace
 
@@ -168,27 +162,13 @@ double Player::score_now(uint64_t now_us) const {
 
 // Called from: run (start, resume) and reconnect. Song time score_s plays at board ticks
 // `ticks`, at the fit's rate (nominal in board-time mode).
-void Player::anchor(double score_s, double ticks, uint64_t now_us) {
+void Player::anchor(double score_s, double ticks) {
   anchor_s_ = score_s;
   anchor_ticks_ = ticks;
   rate_ = opt_.board_time || !opt_.auto_tune ? caps_.f_cpu_hz : sync_.ticks_per_s();
-  anchored_us_ = now_us;
   stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
-// Called from: the loop. Every kRateEveryS, when the fit's rate differs from the timeline's by
-// more than kRateStepPpm, the timeline takes it from the song's current position on.
-void Player::follow_rate(uint64_t now_us) {
-  if (opt_.board_time || !opt_.auto_tune || now_us - anchored_us_ < kRateEveryS * 1e6) return;
-  anchored_us_ = now_us;
-  const double diff_ppm = (sync_.ticks_per_s() / rate_ - 1.0) * 1e6;
-  if (std::fabs(diff_ppm) < kRateStepPpm) return;
-  const double s = score_now(now_us);
-  anchor_ticks_ = event_ticks(s);
-  anchor_s_ = s;
-  rate_ *= 1.0 + std::max(-kRateMaxStepPpm, std::min(kRateMaxStepPpm, diff_ppm)) / 1e6;
-  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
-}
 
 // The period of a pitch on this board: from its measured clock rate (auto-tune), so the note
 // sounds right in real time even when its crystal is off.
@@ -324,7 +304,7 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   // The same board back (same capabilities): same crystal, so the rate measured so far stays;
   // the new fit only sets the offset.
   const double rate = rate_;
-  anchor(at_s, sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate, now);
+  anchor(at_s, sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate);
   rate_ = rate;
   return restore_at(at_s);
 }
@@ -337,12 +317,15 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
   sc::put_u16(&wd[1], opt_.board_time ? 0 : sc::kWatchdogDefaultMs);
   send_payload({wd, wd + 3});
+  // The board's counters from here on, so that the report at the end is this song's (a board
+  // that waited for its host has a watchdog trip on record).
+  if (opt_.exclusive) send_payload({sc::kMsgResetCounters});
   if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, true, stop)) {
     silence();
     return stop.load();
   }
   const uint64_t begin = monotonic_us();
-  anchor(0.0, 0.0, begin);
+  anchor(0.0, 0.0);
   anchor_ticks_ = sync_.ticks_at(static_cast<double>(begin)) + opt_.lead_s * rate_;
   const double clock_every_us = (opt_.board_time ? kBoardTimeClockEveryS : opt_.clock_every_s) * 1e6;
   bool paused = false;
@@ -364,13 +347,12 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
         paused_at = score_now(now);
         silence();
       } else {  // carry on where it paused, one lead from now
-        anchor(paused_at, 0.0, now);
+        anchor(paused_at, 0.0);
         anchor_ticks_ = sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate_;
         if (!restore_at(paused_at)) continue;
       }
     }
     if (now - last_clock_us_ >= clock_every_us) send_clock_request(now);
-    if (!paused) follow_rate(now);
     if (!paused && !send_due(now)) continue;
     if (!read_replies(1)) continue;
     now = monotonic_us();

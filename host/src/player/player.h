@@ -4,10 +4,10 @@
 //
 // Timeline: the board's clock is the song's clock. Song time s plays at board ticks
 // anchor_ticks + (s - anchor_s) * rate, where rate is the board's tick rate per real second
-// as the clock fit measures it (its crystal's error included): the notes keep exact time to
-// one another on the board's timer whatever the host or the link do, and the song runs at
-// its real tempo. When the fit's rate moves (a better estimate, a drifting crystal) the
-// timeline takes the new rate from the current position on, without a jump. Each entry goes
+// as the clock fit measured it before the first note (its crystal's error included): the
+// notes keep exact time to one another on the board's timer whatever the host or the link do,
+// and the song runs at its real tempo. The rate stays (a crystal does not drift by more than a
+// few ppm over a song; following every wobble of the fit would bend the song's time). Each entry goes
 // out lead_s before its time, as far as the board's queue (Caps::queue_size entries) has
 // room. The host's scheduling jitter only moves when a frame is sent, never when a note
 // starts. In board-time mode (render, a virtual board simulated as fast as it runs) the
@@ -59,7 +59,7 @@ struct PlayerStats {
   uint64_t reconnects = 0;         // board lost (cable, reset) and found again
   double min_lead_ms = 1e9;        // the least time ahead of its start an entry was sent
   double ppm = 0;                  // the board's crystal error, as the clock fit has it now
-  double rate_ppm = 0;             // the crystal error the timeline and the pitches use
+  double rate_ppm = 0;             // the crystal error the timeline and the pitches use (the fit's at the start)
   double residual_us = 0;          // the clock fit's RMS error
   // The board's own counters at the end (status reply; -1: none came).
   long board_frames_bad = -1, board_overruns = -1;
@@ -130,9 +130,7 @@ class Player {
   // Timeline (see the top): song time s (in loop k: k * duration + s) plays at board ticks
   // anchor_ticks_ + (s - anchor_s_) * rate_.
   double anchor_s_ = 0, anchor_ticks_ = 0, rate_ = 0;
-  uint64_t anchored_us_ = 0;  // when the timeline last took a rate
-  void anchor(double score_s, double ticks, uint64_t now_us);  // sets the timeline
-  void follow_rate(uint64_t now_us);                           // takes the fit's rate, no jump
+  void anchor(double score_s, double ticks);  // sets the timeline
   size_t cursor_ = 0;       // next event to send
   unsigned loop_ = 0;       // loop of the next event
   std::deque<double> queued_ticks_;  // entries the board may still hold (their ticks)
