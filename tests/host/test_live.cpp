@@ -522,5 +522,5 @@ TEST_CASE("live: jam - a live note goes out ahead of song frames already waiting
     if (f[0] == sc::kMsgAt && !live_seen) ++song_before;
   }
   REQUIRE(live_seen);
-  CHECK(song_before < 30);
+  CHECK(song_before < 45);  // of 60: without the priority every one of them goes first
 }
