@@ -15,9 +15,12 @@ void setup() {
 }
 
 // Main loop: drain the UART into the frame decoder, start due timestamped notes, watchdog.
+// The UART is drained again between the other pieces, so a frame's last byte waits for at
+// most one piece of the pass, not the whole of it, before its frame is handled.
 void loop() {
   uint8_t bytes[32];
   g_commands.on_bytes(bytes, link::read_some(bytes, sizeof bytes));
   g_commands.poll();
+  g_commands.on_bytes(bytes, link::read_some(bytes, sizeof bytes));
   sched::rescue_missed_compare();
 }
