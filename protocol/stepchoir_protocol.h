@@ -339,6 +339,8 @@ class FrameDecoder {
 
   const uint8_t *payload() const { return buf_; }
   uint8_t payload_len() const { return len_; }
+  // True between a frame's first byte and its delimiter.
+  bool in_frame() const { return n_ != 0; }
 
  private:
   // Called from: push. Stores one decoded byte and folds the one two places back into the CRC.

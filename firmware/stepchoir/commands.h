@@ -41,6 +41,9 @@ class Commands {
   // so the loop keeps up with the line and a frame is handled right after its last byte.
   void on_bytes(const uint8_t *bytes, uint8_t n);
 
+  // Called from: main loop. True while a frame's bytes are coming in (its delimiter not yet).
+  bool in_frame() const { return decoder_.in_frame(); }
+
   // Called from: main loop, often. Starts due timestamped entries, runs the watchdog.
   void poll();
 
