@@ -80,6 +80,10 @@ static const uint16_t kBookkeepTicks = 1000;
 // every frame*"`: residual p99 104-136 us against 25), so it stays 200.
 static const uint8_t kMinLeadTicks = 200;
 
+// How soon after the main loop posts a command the step ISR comes for it (ticks), when it is
+// not already due sooner: the compare is armed this far ahead.
+static const uint8_t kPostLeadTicks = 100;
+
 // A motor that starts from silence plays its first edge this long after the step ISR took
 // its command (ticks): the ISR is running then, so this only has to cover its own loop into
 // the burst. 300 (was 600): a note's onset 8-10 us sooner (`test_e2e "link: a note starts*"`).
