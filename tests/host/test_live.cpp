@@ -332,7 +332,7 @@ TEST_CASE("live: a slow link gets the latest states, every silence, and ends sil
   CHECK(periods_of(entries, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF), 0});
 }
 
-TEST_CASE("live: the engine writes an idle link's frames itself, in order; a link that would wait gets them from the writer", "[live]") {
+TEST_CASE("live: the engine writes an idle link's frames itself, in order, and a link that would wait gets them from the writer", "[live]") {
   FakeLink link(true);
   LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), kNoRefresh);
   s.start();
