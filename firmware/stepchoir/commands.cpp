@@ -13,9 +13,7 @@ void Commands::init() {
   last_frame_ticks_ = hal::now_ticks();
 }
 
-void Commands::on_byte(uint8_t byte) {
-  const uint8_t rc = decoder_.push(byte);
-  if (rc == kFrameNone) return;
+__attribute__((noinline)) void Commands::on_frame(uint8_t rc) {
   if (rc != kFrameOk) {
     ++frames_bad_;
     fault(rc);
@@ -161,7 +159,7 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
 }
 
 void Commands::on_bytes(const uint8_t *bytes, uint8_t n) {
-  for (uint8_t i = 0; i < n; ++i) on_byte(bytes[i]);
+  for (uint8_t i = 0; i < n; ++i) on_byte(bytes[i]);  // push() inlined, on_frame() not
 }
 
 void Commands::poll() {

@@ -16,6 +16,13 @@ static const uint16_t kWatchdogDefaultMs = sc::kWatchdogDefaultMs;
 // Range 4-64; the Uno has 2 KB of RAM in all.
 static const uint8_t kQueueSize = 24;
 
+// While a frame is coming in, the main loop takes its bytes as they arrive and defers its other
+// work (poll(): the queue's hand-over, the watchdog) for at most this many passes in a row
+// and this many bytes taken since it last ran: about 2,000 cycles (125 us) at the worst, well
+// inside the queue's 500 us hand-over, so the frame is handled right after its last byte.
+static const uint8_t kDeferPasses = 8;
+static const uint8_t kDeferBytes = 16;
+
 // UART receive ring (bytes, power of two). At 1,000,000 baud a byte arrives every 10 us; the
 // main loop drains the ring between its other work. 128 bytes = 1.28 ms of line time.
 static const uint8_t kRxRingBytes = 128;
@@ -68,8 +75,14 @@ static const uint16_t kBookkeepTicks = 1000;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is
-// reliable there.
+// reliable there. 100 started 500 notes on a silent motor on each board without a miss
+// (5-8 us sooner), but with motors playing it let edges slip (`test_e2e "link: * decodes
+// every frame*"`: residual p99 104-136 us against 25), so it stays 200.
 static const uint8_t kMinLeadTicks = 200;
+
+// How soon after the main loop posts a command the step ISR comes for it (ticks), when it is
+// not already due sooner: the compare is armed this far ahead.
+static const uint8_t kPostLeadTicks = 100;
 
 // A motor that starts from silence plays its first edge this long after the step ISR took
 // its command (ticks): the ISR is running then, so this only has to cover its own loop into

@@ -419,7 +419,7 @@ __attribute__((noinline)) bool arm() {
 }
 
 // Called from: main loop. Leaves a command in motor mi's mailbox and makes sure the step ISR
-// comes for it within kMinLeadTicks. Interrupts off for about 60 cycles.
+// comes for it within kPostLeadTicks. Interrupts off for about 60 cycles.
 void post(uint8_t mi, uint8_t cmd, uint32_t period_q8, uint32_t at) {
   Motor &m = g_motor[mi];
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
@@ -427,7 +427,7 @@ void post(uint8_t mi, uint8_t cmd, uint32_t period_q8, uint32_t at) {
     m.cmd_period_q8 = period_q8;
     m.cmd_at = at;
     g_cmd_mask |= (uint8_t)(1u << mi);
-    const uint32_t soon = now_locked() + cfg::kMinLeadTicks;
+    const uint32_t soon = now_locked() + cfg::kPostLeadTicks;
     if ((int32_t)(g_armed - soon) > 0) {
       g_armed = soon;
       OCR1A = (uint16_t)soon;
@@ -528,7 +528,7 @@ void silence_all() {
 }  // namespace sched
 
 // Step ISR. Who: Timer1 compare A, kEarlyTicks before each deadline, every 2 ms to extend the
-// timer, or kMinLeadTicks after the main loop posted a command. It masks itself and runs with
+// timer, or kPostLeadTicks after the main loop posted a command. It masks itself and runs with
 // interrupts on (the UART nests freely) except from kCliLeadTicks before each edge until it
 // is raised. Work comes in small pieces (one motor's rescheduling and step bookkeeping, one
 // command), each started only when no edge is due within kBookkeepTicks / kSoonTicks: a played

@@ -55,6 +55,12 @@ class TermiosLink : public Link {
     return true;
   }
 
+  bool try_write(const uint8_t *data, size_t len) override {
+    const ssize_t n = ::write(fd_, data, len);  // the descriptor does not block
+    if (n <= 0) return false;
+    return static_cast<size_t>(n) == len || write(data + n, len - static_cast<size_t>(n));  // rare: a full buffer
+  }
+
   long read(uint8_t *data, size_t len, int timeout_ms) override {
     pollfd p{fd_, POLLIN, 0};
     const int r = ::poll(&p, 1, timeout_ms);
@@ -98,6 +104,12 @@ class SerialLink : public Link {
 
   bool write(const uint8_t *data, size_t len) override {
     return sp_blocking_write(port_, data, len, 1000) == static_cast<int>(len);
+  }
+  bool try_write(const uint8_t *data, size_t len) override {
+    if (sp_output_waiting(port_) != 0) return false;  // bytes queued, or an error
+    const int n = sp_nonblocking_write(port_, data, len);
+    if (n <= 0) return false;
+    return static_cast<size_t>(n) == len || write(data + n, len - static_cast<size_t>(n));  // rare: a full buffer
   }
 
   long read(uint8_t *data, size_t len, int timeout_ms) override {

@@ -16,6 +16,10 @@ class Link {
   virtual ~Link() = default;
   // Called from: the writer thread. Writes all bytes; false when the port failed.
   virtual bool write(const uint8_t *data, size_t len) = 0;
+  // Called from: the live engine thread. Writes all bytes at once when the OS takes them without
+  // waiting (nothing queued ahead of them); otherwise writes nothing and returns false, as it
+  // does on a link that cannot tell. Never blocks for long.
+  virtual bool try_write(const uint8_t *, size_t) { return false; }
   // Called from: the reader thread. Reads up to len bytes, waiting up to timeout_ms;
   // returns the count (0 on timeout) or -1 when the port failed.
   virtual long read(uint8_t *data, size_t len, int timeout_ms) = 0;

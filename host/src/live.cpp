@@ -197,6 +197,21 @@ bool song_room(const LinkBudget &budget, size_t len) noexcept {
   return budget.credit_bytes() >= LinkBudget::kBurstBytes / 2 + static_cast<int64_t>(len);
 }
 
+// Called from: the writer thread. Takes a board's link_owned flag, waiting (yielding) while
+// the engine holds it for one write; gives it back when it goes out of scope. Does not allocate.
+class LinkOwnership {
+ public:
+  explicit LinkOwnership(std::atomic<bool> &flag) noexcept : flag_(flag) {
+    while (flag_.exchange(true, std::memory_order_acquire)) std::this_thread::yield();
+  }
+  ~LinkOwnership() { flag_.store(false, std::memory_order_release); }
+  LinkOwnership(const LinkOwnership &) = delete;
+  LinkOwnership &operator=(const LinkOwnership &) = delete;
+
+ private:
+  std::atomic<bool> &flag_;
+};
+
 // Called from: the engine and writer threads as they start. Asks for real-time scheduling
 // (SCHED_FIFO), so that a busy machine does not delay their wake-ups; without the privilege
 // the thread keeps normal scheduling. Returns whether it got it.
@@ -326,17 +341,83 @@ void LiveSession::engine_loop() {
   route(out, n, monotonic_us());
 }
 
-// Called from: the engine thread. Hands each entry to its board's writer and publishes the
-// motor's note. Waits (yielding) only when a writer's queue is full, which a stuck link causes.
+// Called from: the engine thread. Writes each entry itself when its board's link is idle
+// (try_write_now), else hands it to the board's writer; publishes the motor's note. Waits
+// (yielding) only when a writer's queue is full, which a stuck link causes.
 void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us) {
   for (size_t i = 0; i < n; ++i) {
     const size_t m = entries[i].motor;
     BoardThreads &b = *boards_[board_of_[m]];
     const MotorUpdate u{b.board.motors[m - b.first_motor], entries[i].period_q8, event_us};
-    while (!b.updates.try_enqueue(u)) std::this_thread::yield();
+    if (!try_write_now(b, u)) {
+      while (!b.updates.try_enqueue(u)) std::this_thread::yield();
+      ++b.enqueued;
+    }
     const MotorState s = allocator_.motor(m);
     notes_[m].store(s.sounding && s.period_q8 ? s.played_note : -1, std::memory_order_relaxed);
   }
+}
+
+// Called from: the engine thread (route). Writes u's frame at once when board b's link is
+// idle: the engine got link_owned, the writer has taken every update queued before (so u
+// cannot overtake one), nothing waits in the coalescer, the link is attached, the budget has
+// room and the OS takes the frame without waiting (Link::try_write). Budget: one Coalescer
+// copy and add, one frame encoded, one non-blocking write() (a few us on a pty). Never waits;
+// does not allocate or log. False: nothing was written, the caller queues u for the writer.
+bool LiveSession::try_write_now(BoardThreads &b, const MotorUpdate &u) {
+  if (b.link_owned.exchange(true, std::memory_order_acquire)) return false;
+  bool done = false;
+  BoardStats &stats = *b.stats;
+  if (b.absorbed.load(std::memory_order_acquire) == b.enqueued && !b.coalescer.pending() &&
+      b.detach_gen.load(std::memory_order_acquire) == b.attach_gen.load(std::memory_order_acquire) &&
+      !stats.write_failed.load(std::memory_order_relaxed)) {
+    b.budget.refill(monotonic_us());
+    Coalescer next = b.coalescer;  // taken over only once the frame is written
+    next.add(u);
+    sc::PeriodEntry e[Coalescer::kMaxMotors];
+    uint64_t event_us[Coalescer::kMaxMotors];
+    const size_t silences = next.take_silences(e, event_us);  // none: the coalescer was idle
+    const size_t n = silences ? 0 : next.take_latest(e, event_us);
+    uint8_t payload[sc::kSetPeriodBytes], wire[sc::kMaxFrameWire];
+    if (silences == 0 && n == 0) {  // nothing to send (a silence to a silent motor)
+      b.coalescer = next;
+      done = true;
+    } else if (silences == 0 && n == 1 && b.budget.can_send()) {
+      sc::put_entry(payload, e[0].motor, e[0].period_q8);
+      const uint8_t len = sc::encode_frame(payload, sizeof payload, wire);
+      if (b.link.load(std::memory_order_acquire)->try_write(wire, len)) {
+        const uint64_t now = monotonic_us();
+        if (event_us[0] != 0) latency_->record(now > event_us[0] ? now - event_us[0] : 0);
+        b.coalescer = next;
+        stats.frames_sent.fetch_add(1, std::memory_order_relaxed);
+        stats.bytes_sent.fetch_add(len, std::memory_order_relaxed);
+        stats.entries_sent.fetch_add(1, std::memory_order_relaxed);
+        stats.direct_frames.fetch_add(1, std::memory_order_relaxed);
+        b.budget.spend(len);
+        b.sent_bytes += len;
+        done = true;
+      }
+    }
+  }
+  b.link_owned.store(false, std::memory_order_release);
+  return done;
+}
+
+// Called from: the writer thread, holding board b's link_owned.
+// Writes the coalescer's pending silences, then its latest states, and charges every byte
+// written on the link since the last call to the budget. Does not allocate; blocks in write().
+void LiveSession::send_pending(BoardThreads &b, Link &link) {
+  BoardStats &stats = *b.stats;
+  sc::PeriodEntry entries[Coalescer::kMaxMotors];
+  uint64_t event_us[Coalescer::kMaxMotors];
+  size_t n = b.coalescer.take_silences(entries, event_us);
+  if (n) write_entries(link, stats, *latency_, entries, event_us, n);
+  n = b.coalescer.take_latest(entries, event_us);
+  if (n) write_entries(link, stats, *latency_, entries, event_us, n);
+  stats.coalesced.store(b.coalescer.coalesced(), std::memory_order_relaxed);
+  const uint64_t total = stats.bytes_sent.load(std::memory_order_relaxed);
+  b.budget.spend(total - b.sent_bytes);
+  b.sent_bytes = total;
 }
 
 // One board's writer thread: coalesced set-period frames, heartbeats, status requests; at the
@@ -345,25 +426,33 @@ void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event
 void LiveSession::writer_loop(BoardThreads &b) {
   realtime_.fetch_add(make_realtime(kWriterPriority) ? 1 : 0);
   BoardStats &stats = *b.stats;
-  Coalescer coalescer;
-  sc::PeriodEntry entries[Coalescer::kMaxMotors];
-  uint64_t event_us[Coalescer::kMaxMotors];
+  Coalescer &coalescer = b.coalescer;
+  LinkBudget &budget = b.budget;
   auto last_write = Clock::now(), last_status = Clock::now(), last_refresh = Clock::now();
   bool parked = false;
-  LinkBudget budget;
-  uint64_t sent_bytes = stats.bytes_sent.load(std::memory_order_relaxed);
   for (;;) {
     const bool stopping = b.stop_writer.load(std::memory_order_acquire);
     // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
-    budget.refill(monotonic_us());
-    const uint64_t wait_us = stopping                ? 0
-                             : coalescer.pending()   ? std::max<uint64_t>(budget.wait_us(), 1)
-                             : b.song.peek()         ? 500  // song frames wait for budget to spare
-                                                     : 10000;
+    uint64_t wait_us;
+    {
+      LinkOwnership own(b.link_owned);
+      budget.refill(monotonic_us());
+      wait_us = stopping                ? 0
+                : coalescer.pending()   ? std::max<uint64_t>(budget.wait_us(), 1)
+                : b.song.peek()         ? 500  // song frames wait for budget to spare
+                                        : 10000;
+    }
     MotorUpdate u;
-    if (b.updates.wait_dequeue_timed(u, std::chrono::microseconds(wait_us))) {
+    const bool woke = b.updates.wait_dequeue_timed(u, std::chrono::microseconds(wait_us));
+    LinkOwnership own(b.link_owned);
+    if (woke) {
+      uint64_t taken = 1;
       coalescer.add(u);
-      while (b.updates.try_dequeue(u)) coalescer.add(u);
+      while (b.updates.try_dequeue(u)) {
+        coalescer.add(u);
+        ++taken;
+      }
+      b.absorbed.fetch_add(taken, std::memory_order_release);
     } else if (stopping && !coalescer.pending()) {
       break;
     }
@@ -388,11 +477,7 @@ void LiveSession::writer_loop(BoardThreads &b) {
     }
     budget.refill(monotonic_us());
     if (coalescer.pending() && (budget.can_send() || stopping)) {
-      size_t n = coalescer.take_silences(entries, event_us);
-      if (n) write_entries(link, stats, *latency_, entries, event_us, n);
-      n = coalescer.take_latest(entries, event_us);
-      if (n) write_entries(link, stats, *latency_, entries, event_us, n);
-      stats.coalesced.store(coalescer.coalesced(), std::memory_order_relaxed);
+      send_pending(b, link);
       last_write = Clock::now();
     }
     // Song frames (jam) go when no live update waits, within the budget and leaving it half
@@ -411,7 +496,7 @@ void LiveSession::writer_loop(BoardThreads &b) {
       stats.frames_sent.fetch_add(1, std::memory_order_relaxed);
       stats.bytes_sent.fetch_add(f->len, std::memory_order_relaxed);
       budget.spend(f->len);
-      sent_bytes += f->len;
+      b.sent_bytes += f->len;
       b.song.pop();
       last_write = Clock::now();
     }
@@ -427,11 +512,12 @@ void LiveSession::writer_loop(BoardThreads &b) {
       last_status = now;
     }
     const uint64_t total = stats.bytes_sent.load(std::memory_order_relaxed);
-    budget.spend(total - sent_bytes);  // every byte on the line counts, heartbeats too
-    sent_bytes = total;
+    budget.spend(total - b.sent_bytes);  // every byte on the line counts, heartbeats too
+    b.sent_bytes = total;
   }
   // Every motor got its silent entry from the engine's panic; stop-all also empties the board's
   // queue and turns the drivers off.
+  LinkOwnership own(b.link_owned);
   if (b.detach_gen.load() == b.attach_gen.load()) {
     const uint8_t stop_all = sc::kMsgStopAll;
     write_payload(*b.link.load(), stats, &stop_all, 1);

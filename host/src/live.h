@@ -7,9 +7,16 @@
 //   engine -- UpdateQueue (one per board) --> writer thread: drains every pending update into
 //     a Coalescer (latest state per motor; a silence is never dropped), encodes at most two
 //     set-period frames and writes them; heartbeats when idle, a status request each second.
+//     When that board's link is idle (nothing queued or pending, the budget has room, the
+//     writer not in the middle of its work, the OS takes the frame without waiting) the engine
+//     writes the frame itself instead (Link::try_write), through the same Coalescer and budget:
+//     that saves the writer's wake-up (bench/results/live-latency.md). The board's link_owned
+//     flag says who may touch the link, Coalescer and budget: the writer waits for it (the
+//     engine holds it for one non-blocking write), the engine only tries it and hands the
+//     update to the writer when it is taken.
 //   reader thread (one per board): decodes replies (errors, status) for the link health.
 // The engine and writer threads never allocate, lock or log after start(); the writer blocks
-// only in Link::write. Everything is counted in atomics that the main thread reads and logs.
+// only in Link::write, the engine never (it writes only what the OS takes at once). Everything is counted in atomics that the main thread reads and logs.
 #ifndef STEPCHOIR_HOST_LIVE_H
 #define STEPCHOIR_HOST_LIVE_H
 
@@ -117,12 +124,12 @@ class Coalescer {
   uint64_t coalesced_ = 0;
 };
 
-// Latency samples in 1 us bins up to 20 ms (more is counted as 20 ms). Lock-free: one writer
-// thread records, any thread reads (relaxed; figures may trail by a sample).
+// Latency samples in 1 us bins up to 20 ms (more is counted as 20 ms). Lock-free: the engine
+// and writer threads record, any thread reads (relaxed; figures may trail by a sample).
 class LatencyHistogram {
  public:
   static constexpr size_t kBins = 20000;
-  // Called from: the writer thread. Does not allocate or block.
+  // Called from: the engine and writer threads. Does not allocate or block.
   void record(uint64_t us) noexcept;
   // Nearest-rank percentile (q in [0, 1]) in us; 0 with no samples. Called from: any thread.
   uint64_t percentile(double q) const noexcept;
@@ -138,6 +145,7 @@ class LatencyHistogram {
 // reader threads, read by anyone.
 struct BoardStats {
   std::atomic<uint64_t> frames_sent{0}, bytes_sent{0}, entries_sent{0}, heartbeats{0}, coalesced{0};
+  std::atomic<uint64_t> direct_frames{0};  // set-period frames the engine wrote itself
   std::atomic<bool> write_failed{false}, read_failed{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
@@ -250,6 +258,13 @@ class LiveSession {
     // to its parked_gen; attach_link sets attach_gen = detach_gen.
     std::atomic<uint32_t> detach_gen{0}, attach_gen{0}, writer_parked_gen{0}, reader_parked_gen{0};
     UpdateQueue updates{kUpdateQueueEntries};
+    // Who may touch the link, coalescer, budget and sent_bytes (see the top of this file).
+    std::atomic<bool> link_owned{false};
+    Coalescer coalescer;
+    LinkBudget budget;
+    uint64_t sent_bytes = 0;         // stats.bytes_sent already charged to the budget
+    std::atomic<uint64_t> absorbed{0};  // updates the writer took from `updates` into coalescer
+    uint64_t enqueued = 0;           // updates the engine put in `updates` (engine thread only)
     std::unique_ptr<BoardStats> stats = std::make_unique<BoardStats>();
     std::atomic<bool> stop_writer{false}, stop_reader{false};
     std::thread writer, reader;
@@ -265,6 +280,8 @@ class LiveSession {
   void writer_loop(BoardThreads &b);    // one board's writer thread
   void reader_loop(BoardThreads &b);    // one board's reader thread
   void route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us);  // engine thread
+  bool try_write_now(BoardThreads &b, const MotorUpdate &u);               // engine thread
+  void send_pending(BoardThreads &b, Link &link);  // writer thread: coalesced entries out
 
   std::vector<std::unique_ptr<BoardThreads>> boards_;
   std::array<uint8_t, Allocator::kMaxMotors> board_of_{};  // pool motor -> board index

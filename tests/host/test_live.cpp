@@ -24,9 +24,18 @@ using namespace stepchoir;
 namespace {
 
 // A Link that keeps every byte written; reads time out with nothing. While closed, writes
-// wait: a link slower than anything the test sends.
+// wait: a link slower than anything the test sends. With `direct`, try_write takes a frame at
+// once while open and refuses it while closed (like a port whose OS buffer is full); without,
+// it always refuses (a link that cannot tell).
 class FakeLink : public Link {
  public:
+  explicit FakeLink(bool direct = false) : direct_(direct) {}
+  bool try_write(const uint8_t *data, size_t len) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!direct_ || !open_) return false;
+    bytes_.insert(bytes_.end(), data, data + len);
+    return true;
+  }
   bool write(const uint8_t *data, size_t len) override {
     std::unique_lock<std::mutex> lock(mu_);
     opened_.wait(lock, [this] { return open_; });
@@ -55,6 +64,7 @@ class FakeLink : public Link {
   }
 
  private:
+  bool direct_;
   bool open_ = true;
   std::condition_variable opened_;
   std::mutex mu_;
@@ -323,6 +333,35 @@ TEST_CASE("live: a slow link gets the latest states, every silence, and ends sil
   for (size_t i = 1; i < m0.size(); ++i) CHECK((m0[i] == 0 || m0[i - 1] == 0));
   CHECK(m0.back() == 0);
   CHECK(periods_of(entries, 1) == std::vector<uint32_t>{hz_to_period_q8(note_hz(64), kF), 0});
+}
+
+TEST_CASE("live: the engine writes an idle link's frames itself, in order, and a link that would wait gets them from the writer", "[live]") {
+  FakeLink link(true);
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), kNoRefresh);
+  s.start();
+  const uint32_t c4 = hz_to_period_q8(note_hz(60), kF), e4 = hz_to_period_q8(note_hz(64), kF),
+                 d4 = hz_to_period_q8(note_hz(62), kF);
+  auto motor = [&](uint8_t m) { return periods_of(entries_of(link.frames()), m); };
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel n -> motor n
+  REQUIRE(eventually([&] { return motor(0) == std::vector<uint32_t>{c4}; }));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));
+  REQUIRE(eventually([&] { return motor(1) == std::vector<uint32_t>{e4}; }));
+  REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
+  REQUIRE(eventually([&] { return motor(0) == std::vector<uint32_t>{c4, 0}; }));
+  CHECK(s.board_stats(0).direct_frames.load() >= 1);  // the writer takes one only while busy
+  // The link would make a writer wait: the engine writes nothing and never blocks; the writer
+  // gets the updates, in order, once the link takes bytes again.
+  link.set_open(false);
+  const uint64_t direct = s.board_stats(0).direct_frames.load();
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 62, 100)));
+  REQUIRE(s.midi_queue().try_enqueue(note_off(1, 64)));
+  REQUIRE(eventually([&] { return s.events() == 5; }));
+  link.set_open(true);
+  REQUIRE(eventually([&] { return motor(0).back() == d4 && motor(1).back() == 0; }));
+  CHECK(s.board_stats(0).direct_frames.load() == direct);
+  s.stop();
+  CHECK(motor(0) == std::vector<uint32_t>{c4, 0, d4, 0});
+  CHECK(motor(1) == std::vector<uint32_t>{e4, 0});
 }
 
 TEST_CASE("live: heartbeats keep the watchdog fed while nothing plays", "[live]") {

@@ -112,7 +112,7 @@ int main(int argc, char **argv) {
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
       << " per second, then the last note's release. Latency per set-period entry: from the timestamp the RtMidi callback takes to the "
-         "return of the writer's write() on the link (the frame handed to the OS).\n\n"
+         "return of the write() on the link (the frame handed to the OS), by the writer thread or by the engine when the link was idle.\n\n"
       << "| measure | value |\n|---|---|\n"
       << "| events sent / reached the RtMidi callback / dropped at the callback | " << events << " / "
       << midi.received() + midi.dropped() << " / " << midi.dropped() << " |\n"
@@ -133,6 +133,7 @@ int main(int argc, char **argv) {
       << " |\n"
       << "| board counters: bad frames / UART overruns | " << frames_bad << " / " << overruns << " |\n"
       << "| updates coalesced by the writer | " << stats.coalesced.load() << " |\n"
+      << "| set-period frames the engine wrote itself (no writer wake-up) | " << stats.direct_frames.load() << " |\n"
       << "| frames written / heartbeats | " << session.board_stats(0).frames_sent.load() << " / "
       << session.board_stats(0).heartbeats.load() << " |\n"
       << "| CPU of this process (sender, MidiIn, engine, writer, reader) | " << 100.0 * cpu_s / wall_s
