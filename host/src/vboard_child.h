@@ -28,6 +28,7 @@ class VirtualBoard {
   const std::string &path() const { return path_; }
 
  private:
+  static constexpr int kPriority = -5;  // nice value asked for the simulation
   pid_t pid_ = -1;
   std::string path_;
 };
