@@ -55,6 +55,20 @@ std::vector<uint8_t> periods_payload(const std::vector<sc::PeriodEntry> &entries
   return p;
 }
 
+std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::PeriodEntry> &entries) {
+  std::vector<uint8_t> p{sc::kMsgAt, 0, 0, 0, 0};
+  sc::put_u32(&p[1], at_ticks);
+  const std::vector<uint8_t> body = periods_payload(entries);
+  p.insert(p.end(), body.begin(), body.end());
+  return p;
+}
+
+std::vector<uint8_t> watchdog_payload(uint16_t ms) {
+  std::vector<uint8_t> p{sc::kMsgWatchdog, 0, 0};
+  sc::put_u16(&p[1], ms);
+  return p;
+}
+
 std::vector<uint8_t> config_payload(const sc::ConfigBody &c) {
   std::vector<uint8_t> p(1 + sizeof c);
   p[0] = sc::kMsgConfig;

@@ -45,6 +45,12 @@ std::vector<uint8_t> frame(const std::vector<uint8_t> &payload);
 // A payload of set-period entries (a chord), from (motor, period_q8) pairs.
 std::vector<uint8_t> periods_payload(const std::vector<sc::PeriodEntry> &entries);
 
+// A kMsgAt payload: the entries take effect at board time at_ticks.
+std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::PeriodEntry> &entries);
+
+// A kMsgWatchdog payload: silence after ms without a frame (0 = never).
+std::vector<uint8_t> watchdog_payload(uint16_t ms);
+
 // A kMsgConfig payload.
 std::vector<uint8_t> config_payload(const sc::ConfigBody &c);
 

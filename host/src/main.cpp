@@ -69,9 +69,7 @@ int run_tone(stepchoir::Board &board, int motor, double hz, double seconds) {
   }
   // The board's watchdog may have been switched off by an earlier session: set it, so that the
   // note stops by itself if this program dies.
-  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
-  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
-  board.send({wd, wd + 3});
+  board.send(stepchoir::watchdog_payload(sc::kWatchdogDefaultMs));
   board.send(stepchoir::periods_payload({{static_cast<uint8_t>(motor), period}}));
   try {
     if (auto r = board.wait_reply(sc::kMsgError, 30)) {

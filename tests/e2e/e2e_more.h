@@ -39,11 +39,7 @@ inline sc::ConfigBody motor_config(uint8_t motor, uint32_t travel_steps) {
 }
 
 // A kMsgWatchdog payload: timeout in ms, 0 = off.
-inline std::vector<uint8_t> watchdog_payload(uint16_t ms) {
-  std::vector<uint8_t> p{sc::kMsgWatchdog, 0, 0};
-  sc::put_u16(&p[1], ms);
-  return p;
-}
+inline std::vector<uint8_t> watchdog_payload(uint16_t ms) { return stepchoir::watchdog_payload(ms); }
 
 // A set-period payload for one motor (period 0 = silence).
 inline std::vector<uint8_t> tone_payload(uint8_t motor, uint32_t period_q8) {

@@ -32,11 +32,7 @@ inline uint32_t board_ticks(stepchoir::Board &b, uint8_t seq = 1) {
 
 // An `at` payload: entries start at board time at_ticks.
 inline std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::PeriodEntry> &entries) {
-  std::vector<uint8_t> p{sc::kMsgAt, 0, 0, 0, 0};
-  sc::put_u32(&p[1], at_ticks);
-  const auto e = stepchoir::periods_payload(entries);
-  p.insert(p.end(), e.begin(), e.end());
-  return p;
+  return stepchoir::at_payload(at_ticks, entries);
 }
 
 // Sends frames back to back until the board process exits or `stop` is set, draining replies:

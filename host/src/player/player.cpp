@@ -196,18 +196,11 @@ bool Player::send_due(uint64_t now_us) {
     size_t end = cursor_;
     while (end < events_.size() && end - cursor_ < per_frame && events_[end].time_s == events_[cursor_].time_s) ++end;
     if (queued_ticks_.size() + (end - cursor_) > capacity) break;
-    const uint32_t at = static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks)));
-    std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
-    sc::put_u32(&payload[1], at);
     std::vector<sc::PeriodEntry> entries;
     for (size_t i = cursor_; i < end; ++i)
       entries.push_back({opt_.motors[events_[i].motor], events_[i].silent ? sc::kPeriodSilent : period_for(events_[i].pitch)});
-    const std::vector<uint8_t> body = periods_payload(entries);
-    payload.insert(payload.end(), body.begin(), body.end());
-    if (!send_payload(payload)) return false;
-    stats_.entries_sent += entries.size();
+    if (!send_at(ticks, entries)) return false;
     stats_.min_lead_ms = std::min(stats_.min_lead_ms, (ticks - now_ticks) / caps_.f_cpu_hz * 1e3);
-    for (size_t i = cursor_; i < end; ++i) queued_ticks_.push_back(ticks);
     cursor_ = end;
     if (cursor_ == events_.size() && opt_.loop) {
       cursor_ = 0;
@@ -231,15 +224,16 @@ bool Player::restore_at(double score_s) {
   std::vector<sc::PeriodEntry> entries;
   for (size_t m = 0; m < pitch.size(); ++m)
     if (pitch[m] >= 0) entries.push_back({opt_.motors[m], period_for(pitch[m])});
-  if (entries.empty()) return true;
-  const double ticks = event_ticks(score_s);
-  std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
-  sc::put_u32(&payload[1], static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks))));
-  const std::vector<uint8_t> body = periods_payload(entries);
-  payload.insert(payload.end(), body.begin(), body.end());
-  if (!send_payload(payload)) return false;
+  return entries.empty() || send_at(event_ticks(score_s), entries);
+}
+
+// Called from: send_due, restore_at, silence. One `at` frame for entries at board ticks
+// (unwrapped), counted as held in the board's queue until their time. False when the link failed.
+bool Player::send_at(double ticks, const std::vector<sc::PeriodEntry> &entries) {
+  const uint32_t at = static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks)));
+  if (!send_payload(at_payload(at, entries))) return false;
   stats_.entries_sent += entries.size();
-  for (size_t i = 0; i < entries.size(); ++i) queued_ticks_.push_back(ticks);
+  queued_ticks_.insert(queued_ticks_.end(), entries.size(), ticks);
   return true;
 }
 
@@ -254,11 +248,7 @@ void Player::silence() {
   if (opt_.exclusive) {
     send_payload({sc::kMsgStopAll});
   } else if (!queued_ticks_.empty()) {
-    std::vector<uint8_t> payload{sc::kMsgAt, 0, 0, 0, 0};
-    sc::put_u32(&payload[1], static_cast<uint32_t>(static_cast<uint64_t>(std::llround(queued_ticks_.back())) + 1));
-    const std::vector<uint8_t> body = periods_payload(entries);
-    payload.insert(payload.end(), body.begin(), body.end());
-    send_payload(payload);
+    send_at(queued_ticks_.back() + 1, entries);
   }
   queued_ticks_.clear();
 }
@@ -292,9 +282,7 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   }
   board_lost_ = board_restarted_ = false;
   decoder_ = sc::FrameDecoder();
-  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
-  sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
-  send_payload({wd, wd + 3});
+  send_payload(watchdog_payload(sc::kWatchdogDefaultMs));
   sync_.reset();
   queued_ticks_.clear();
   if (!sync_clock(0.2, false, stop)) return false;
@@ -306,6 +294,7 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   const double rate = rate_;
   anchor(at_s, sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate);
   rate_ = rate;
+  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
   return restore_at(at_s);
 }
 
@@ -314,9 +303,7 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   // The motors stop by themselves if this program dies. Not in board-time mode: the simulated
   // board runs several times faster than real time, so a host stalled for a moment would
   // starve its watchdog; it is this program's own child and ends with it anyway.
-  uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
-  sc::put_u16(&wd[1], opt_.board_time ? 0 : sc::kWatchdogDefaultMs);
-  send_payload({wd, wd + 3});
+  send_payload(watchdog_payload(opt_.board_time ? 0 : sc::kWatchdogDefaultMs));
   // The board's counters from here on, so that the report at the end is this song's (a board
   // that waited for its host has a watchdog trip on record).
   if (opt_.exclusive) send_payload({sc::kMsgResetCounters});

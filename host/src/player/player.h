@@ -108,6 +108,7 @@ class Player {
   double score_now(uint64_t now_us) const;   // the song time now on the board (may be before 0)
   uint32_t period_for(double pitch) const;
   bool send_due(uint64_t now_us);
+  bool send_at(double ticks, const std::vector<sc::PeriodEntry> &entries);
   bool restore_at(double score_s);           // entries for what sounds at score_s, at its time
   bool reconnect(const std::atomic<bool> &stop);
   void silence();
