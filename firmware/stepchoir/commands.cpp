@@ -173,17 +173,20 @@ void Commands::poll() {
     seen_overruns_ = overruns;
     if (overruns) fault(kErrUartOverrun);
   }
-  // Timestamped entries go to the step ISR a little before their time; it starts a silent
-  // motor, or strikes a sounding one again, exactly on the entry's time.
-  static const uint32_t kHandOverTicks = 8000;  // 500 us at 16 MHz: longer than a main-loop pass
+  // Timestamped entries go to the step ISR cfg::kHandOverTicks before their time; it starts a
+  // silent motor, or strikes a sounding one again, exactly on the entry's time. The ISR holds
+  // one timed change a motor: an entry whose motor still has one waiting waits too (and the
+  // entries behind it, in order) until the ISR has turned that one into the motor's next edge.
   while (queue_used_ != 0) {
     const AtEntry &e = queue_[queue_head_];
     const int32_t ahead = (int32_t)(e.at_ticks - now);
-    if (ahead > (int32_t)kHandOverTicks) break;
+    if (ahead > (int32_t)cfg::kHandOverTicks) break;
     if (ahead < 0) {
       fault(kErrLate);
       reply_error(kErrLate, kMsgAt, e.motor);  // the host counts them: its lead was too short
       hal::set_period(e.motor, e.period_q8);
+    } else if (hal::timed_change_pending(e.motor)) {
+      break;
     } else {
       hal::set_period_at(e.motor, e.period_q8, e.at_ticks);
     }

@@ -23,6 +23,14 @@ static const uint8_t kQueueSize = 24;
 static const uint8_t kDeferPasses = 8;
 static const uint8_t kDeferBytes = 16;
 
+// Timestamped entries leave the queue for the step ISR this long before their time (ticks).
+// Longer than the main loop can be kept waiting: the step ISR may hold the CPU for
+// kMaxIsrTicks between main-loop slices while every motor sounds high, and a pass of the loop
+// may need two slices. At 500 us (8000), entries handed over in such a pass came 100-400 us
+// late (`test_e2e "play: a black-MIDI*"`: late 9-26 of 1239). 2 ms; two entries of one motor
+// closer than this wait for each other (see Commands::poll).
+static const uint16_t kHandOverTicks = 32000;
+
 // UART receive ring (bytes, power of two). At 1,000,000 baud a byte arrives every 10 us; the
 // main loop drains the ring between its other work. 128 bytes = 1.28 ms of line time.
 static const uint8_t kRxRingBytes = 128;
@@ -125,6 +133,7 @@ static const uint8_t kPulseUsMax = 10;
 // Default travel (steps) before soft limits reverse the motor, until the host configures it.
 static const uint32_t kDefaultTravelSteps = 3200;
 
+static_assert(kHandOverTicks >= 2u * kMaxIsrTicks, "hand-over: longer than two step-ISR holds");
 static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");

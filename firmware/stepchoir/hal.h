@@ -29,6 +29,9 @@ void set_period(uint8_t m, uint32_t period_q8);
 
 // Like set_period, but a silent motor's first edge falls exactly at board time at_ticks.
 void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
+// True while motor m has a timed change the step ISR has not yet made its next edge (it
+// holds one a motor; a second handed over before would replace it). Called from: main loop.
+bool timed_change_pending(uint8_t m);
 
 // Silences every motor at once and disables the drivers.
 void stop_all();

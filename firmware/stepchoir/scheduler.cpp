@@ -603,6 +603,15 @@ void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
   sched::post(m, sched::kCmdPlayAt, period_q8, at_ticks);
 }
 
+bool timed_change_pending(uint8_t m) {
+  bool r;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    const sched::Motor &mo = sched::g_motor[m];
+    r = mo.cmd == sched::kCmdPlayAt || (mo.flags & sched::kRestrike);
+  }
+  return r;
+}
+
 void motor_status(uint8_t m, sc::StatusMotor *out) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     const sched::Motor &mo = sched::g_motor[m];

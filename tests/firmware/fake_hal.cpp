@@ -12,6 +12,11 @@ void set_period(uint8_t m, uint32_t p) { g_hal.calls.push_back({FakeHal::kSet, m
 void set_period_at(uint8_t m, uint32_t p, uint32_t at) {
   g_hal.calls.push_back({FakeHal::kSetAt, m, p, at});
   g_hal.period[m] = p;
+  g_hal.pending[m] = true;
+  g_hal.pending_at[m] = at;
+}
+bool timed_change_pending(uint8_t m) {
+  return g_hal.pending[m] && static_cast<int32_t>(g_hal.now - g_hal.pending_at[m]) < 0;
 }
 void stop_all() {
   g_hal.calls.push_back({FakeHal::kStop, 0, 0, 0});

@@ -19,6 +19,9 @@ struct FakeHal {
   uint8_t motors = 4;
   uint32_t now = 1000;
   std::array<uint32_t, 8> period{};
+  // A timed change is the step ISR's until its time (the real one lets go at the edge before).
+  std::array<uint32_t, 8> pending_at{};
+  std::array<bool, 8> pending{};
   std::vector<Call> calls;
   std::vector<sc::ConfigBody> configs;
   std::vector<uint8_t> sent;                   // encoded reply bytes

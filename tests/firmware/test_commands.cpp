@@ -32,6 +32,15 @@ std::vector<uint8_t> wire(const std::vector<uint8_t> &payload) {
   return out;
 }
 
+// Feeds one `at` frame: motor m to period p at board time t.
+void feed_at(cmd::Commands &c, uint32_t t, uint8_t m, uint32_t p) {
+  std::vector<uint8_t> pl(9);
+  pl[0] = sc::kMsgAt;
+  sc::put_u32(&pl[1], t);
+  sc::put_entry(&pl[5], m, p);
+  feed(c, wire(pl));
+}
+
 }  // namespace
 
 TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
@@ -219,13 +228,7 @@ TEST_CASE("watchdog timeout is settable and 0 turns it off") {
 
 TEST_CASE("timestamped entries start in order - late ones at once - a full queue refuses") {
   auto &c = fresh();
-  auto at = [&](uint32_t t, uint8_t m, uint32_t p) {
-    std::vector<uint8_t> pl(9);
-    pl[0] = sc::kMsgAt;
-    sc::put_u32(&pl[1], t);
-    sc::put_entry(&pl[5], m, p);
-    feed(c, wire(pl));
-  };
+  auto at = [&](uint32_t t, uint8_t m, uint32_t p) { feed_at(c, t, m, p); };
   at(g_hal.now + 100000, 0, 9309091);
   at(g_hal.now + 200000, 1, 9309091);
   c.poll();
@@ -250,6 +253,30 @@ TEST_CASE("timestamped entries start in order - late ones at once - a full queue
   CHECK(g_hal.replies[0][1] == sc::kErrQueueFull);
   feed(c, wire({sc::kMsgStopAll}));
   CHECK(c.queue_used() == 0);
+}
+
+TEST_CASE("a motor's second timed change waits until the step ISR has taken its first") {
+  auto &c = fresh();
+  auto at = [&](uint32_t t, uint8_t m, uint32_t p) { feed_at(c, t, m, p); };
+  // Motor 0 twice within the hand-over window, motor 1 after them.
+  const uint32_t t0 = g_hal.now + 2 * cfg::kHandOverTicks;
+  at(t0, 0, 9309091);
+  at(t0 + 1000, 0, sc::kPeriodSilent);
+  at(t0 + 2000, 1, 9309091);
+  g_hal.now = t0 - cfg::kHandOverTicks + 10;  // all three inside the window
+  c.poll();
+  REQUIRE(g_hal.calls.size() == 1);           // the first only: the second would replace it
+  CHECK(g_hal.calls[0].at_ticks == t0);
+  g_hal.now = t0 - 1;
+  c.poll();
+  CHECK(g_hal.calls.size() == 1);
+  g_hal.now = t0;                             // the first is the motor's edge now
+  c.poll();
+  REQUIRE(g_hal.calls.size() == 3);
+  CHECK(g_hal.calls[1].kind == FakeHal::kSetAt);  // still ahead of its time: on its tick
+  CHECK(g_hal.calls[1].at_ticks == t0 + 1000);
+  CHECK(g_hal.calls[2].motor == 1);
+  CHECK(c.last_error() == sc::kErrNone);
 }
 
 TEST_CASE("config is range-checked before it reaches the driver") {
