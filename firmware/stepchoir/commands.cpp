@@ -56,7 +56,8 @@ uint8_t Commands::handle_periods(const uint8_t *p, uint8_t len) {
   return kErrNone;
 }
 
-// kMsgAt: u32 board time, then entries; queued in arrival order (the host sends in time order).
+// kMsgAt: u32 board time, then entries; queued in arrival order (the host sends in time order)
+// for the step ISR, which makes each one exactly on its time.
 uint8_t Commands::handle_at(const uint8_t *p, uint8_t len) {
   if (len < 4 + kSetPeriodBytes || (len - 4) % kSetPeriodBytes != 0) return kErrLength;
   const uint32_t at = get_u32(p);
@@ -66,14 +67,10 @@ uint8_t Commands::handle_at(const uint8_t *p, uint8_t len) {
     const uint8_t rc = check_entry(e);
     if (rc != kErrNone) return rc;
   }
-  if (queue_used_ + (len - 4) / kSetPeriodBytes > cfg::kQueueSize) return kErrQueueFull;
+  if (hal::queue_used() + (len - 4) / kSetPeriodBytes > cfg::kQueueSize) return kErrQueueFull;
   for (uint8_t i = 4; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
     get_entry(p + i, &e);
-    AtEntry &slot = queue_[(uint8_t)((queue_head_ + queue_used_) % cfg::kQueueSize)];
-    slot.at_ticks = at;
-    slot.period_q8 = e.period_q8;
-    slot.motor = e.motor;
-    ++queue_used_;
+    hal::queue_at(e.motor, e.period_q8, at);
   }
   return kErrNone;
 }
@@ -118,8 +115,7 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
         if (n != 0) rc = kErrLength;
         break;
       case kMsgStopAll:
-        hal::stop_all();  // a panic is obeyed even if the frame is oddly long
-        queue_used_ = 0;
+        hal::stop_all();  // a panic is obeyed even if the frame is oddly long, the queue emptied
         if (n != 0) rc = kErrLength;
         break;
       case kMsgStatusReq:
@@ -173,29 +169,17 @@ void Commands::poll() {
     seen_overruns_ = overruns;
     if (overruns) fault(kErrUartOverrun);
   }
-  // Timestamped entries go to the step ISR cfg::kHandOverTicks before their time; it starts a
-  // silent motor, or strikes a sounding one again, exactly on the entry's time. The ISR holds
-  // one timed change a motor: an entry whose motor still has one waiting waits too (and the
-  // entries behind it, in order) until the ISR has turned that one into the motor's next edge.
-  while (queue_used_ != 0) {
-    const AtEntry &e = queue_[queue_head_];
-    const int32_t ahead = (int32_t)(e.at_ticks - now);
-    if (ahead > (int32_t)cfg::kHandOverTicks) break;
-    if (ahead < 0) {
-      fault(kErrLate);
-      reply_error(kErrLate, kMsgAt, e.motor);  // the host counts them: its lead was too short
-      hal::set_period(e.motor, e.period_q8);
-    } else if (hal::timed_change_pending(e.motor)) {
-      break;
-    } else {
-      hal::set_period_at(e.motor, e.period_q8, e.at_ticks);
-    }
-    queue_head_ = (uint8_t)((queue_head_ + 1) % cfg::kQueueSize);
-    --queue_used_;
+  // Timestamped entries the step ISR took after their time (it made them at once): the host
+  // counts these replies, its lead was too short.
+  uint8_t motor;
+  const uint8_t late = hal::late_entries(&motor);
+  if (late != seen_late_) {
+    seen_late_ = late;
+    fault(kErrLate);
+    reply_error(kErrLate, kMsgAt, motor);
   }
   if (watchdog_ticks_ != 0 && !watchdog_tripped_ && now - last_frame_ticks_ > watchdog_ticks_) {
     watchdog_tripped_ = true;
-    queue_used_ = 0;
     hal::stop_all();
     fault(kErrWatchdog);
   }
@@ -226,7 +210,7 @@ void Commands::reply_status() {
   h.uart_overruns = hal::uart_overruns();
   h.reversals = hal::reversals();
   h.late_edges = hal::late_edges();
-  h.queue_used = queue_used_;
+  h.queue_used = hal::queue_used();
   const uint8_t motor_fault = hal::last_motor_fault();
   h.last_error = motor_fault ? motor_fault : last_error_;
   h.motor_count = hal::motor_count();

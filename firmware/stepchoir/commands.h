@@ -17,13 +17,6 @@ struct MotorLimits {
   uint32_t max_period_q8;
 };
 
-// One timestamped entry waiting for its board time.
-struct AtEntry {
-  uint32_t at_ticks;
-  uint32_t period_q8;
-  uint8_t motor;
-};
-
 class Commands {
  public:
   // Called from: setup(). Defaults: every motor allowed kPeriodQ8Min..kPeriodQ8Max.
@@ -51,7 +44,7 @@ class Commands {
   uint32_t frames_ok() const { return frames_ok_; }
   uint16_t frames_bad() const { return frames_bad_; }
   uint8_t last_error() const { return last_error_; }
-  uint8_t queue_used() const { return queue_used_; }
+  uint8_t queue_used() const { return hal::queue_used(); }
   // True from a watchdog stop until the next set-period, at or reset-counters frame.
   bool watchdog_tripped() const { return watchdog_tripped_; }
 
@@ -72,9 +65,6 @@ class Commands {
 
   sc::FrameDecoder decoder_;
   MotorLimits limits_[sc::kMaxMotors];
-  AtEntry queue_[cfg::kQueueSize];
-  uint8_t queue_head_ = 0;
-  uint8_t queue_used_ = 0;
   uint32_t frames_ok_ = 0;
   uint16_t frames_bad_ = 0;
   uint8_t last_error_ = 0;
@@ -83,6 +73,7 @@ class Commands {
   uint32_t watchdog_ticks_ = 0;  // 0 = off
   bool watchdog_tripped_ = false;
   uint16_t seen_overruns_ = 0;  // UART overrun count last looked at
+  uint8_t seen_late_ = 0;       // hal::late_entries() count last looked at
 };
 
 // Watchdog time in ticks for a timeout in ms at the board's F_CPU (no division at run time

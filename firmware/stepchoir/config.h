@@ -17,19 +17,22 @@ static const uint16_t kWatchdogDefaultMs = sc::kWatchdogDefaultMs;
 static const uint8_t kQueueSize = 24;
 
 // While a frame is coming in, the main loop takes its bytes as they arrive and defers its other
-// work (poll(): the queue's hand-over, the watchdog) for at most this many passes in a row
-// and this many bytes taken since it last ran: about 2,000 cycles (125 us) at the worst, well
-// inside the queue's 500 us hand-over, so the frame is handled right after its last byte.
+// work (poll(): late replies, the watchdog) for at most this many passes in a row and this
+// many bytes taken since it last ran: about 2,000 cycles (125 us) at the worst, so the frame
+// is handled right after its last byte.
 static const uint8_t kDeferPasses = 8;
 static const uint8_t kDeferBytes = 16;
 
-// Timestamped entries leave the queue for the step ISR this long before their time (ticks).
-// Longer than the main loop can be kept waiting: the step ISR may hold the CPU for
-// kMaxIsrTicks between main-loop slices while every motor sounds high, and a pass of the loop
-// may need two slices. At 500 us (8000), entries handed over in such a pass came 100-400 us
-// late (`test_e2e "play: a black-MIDI*"`: late 9-26 of 1239). 2 ms; two entries of one motor
-// closer than this wait for each other (see Commands::poll).
-static const uint16_t kHandOverTicks = 32000;
+// The step ISR takes a timestamped entry from the queue this long before its time (ticks),
+// whatever the main loop is busy with. Longer than kWakeTicks, the longest the ISR sleeps,
+// plus kTakeUrgentTicks: an idle ISR finds every entry before it is urgent. Handed over by
+// the main loop instead, entries came late when every motor sounded high and the ISR left it
+// few cycles: 100-400 us late in a black-MIDI song (`test_e2e "play: a black-MIDI*"`), 20 of
+// 160 with four top notes even with a 2 ms lead (`test_e2e "at: entries keep*"`).
+static const uint16_t kTakeTicks = 48000;
+// Within this long of its time (ticks), an entry is taken before any edge, however busy the
+// step ISR is (taking it costs about 400 cycles; the edge waits that long at most).
+static const uint16_t kTakeUrgentTicks = 8000;
 
 // UART receive ring (bytes, power of two). At 1,000,000 baud a byte arrives every 10 us; the
 // main loop drains the ring between its other work. 128 bytes = 1.28 ms of line time.
@@ -76,10 +79,16 @@ static const uint16_t kEarlyTicks = 600;
 // kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
 static const uint16_t kSoonTicks = 1200;
 
+// A command or a due queue entry waits for edges due within kSoonTicks only this long into a
+// step ISR invocation (ticks): with every motor near the top of its range an edge is always
+// that close, and a command (a live note) waited until the overload guard, 1 ms or more. Past
+// it the command is carried out at once; the next edge may come up to its ~350 cycles late.
+static const uint16_t kCmdWaitTicks = 4000;
+
 // An edge due within this long is waited for rather than starting a played motor's bookkeeping
 // (ticks): bookkeep_one (about 300 cycles) and the ISR's loop back into a burst (about 250),
 // stretched by nested UART ISRs, plus kCliLeadTicks.
-static const uint16_t kBookkeepTicks = 1000;
+static const uint16_t kBookkeepTicks = 700;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is
@@ -97,9 +106,10 @@ static const uint8_t kPostLeadTicks = 100;
 // the burst. 300 (was 600): a note's onset 8-10 us sooner (`test_e2e "link: a note starts*"`).
 static const uint16_t kStartLeadTicks = 300;
 
-// Overload guard (ticks): a step ISR invocation running longer than kMaxIsrTicks stops waiting
-// for edges and returns once its bookkeeping is done, leaving the main loop at least
-// kMainSliceTicks to decode frames (stop-all, the watchdog). Edges are late then, never lost.
+// Overload guard (ticks): kMaxIsrTicks into a step ISR invocation, the ISR plays only edges
+// already due, and returns once its bookkeeping is done, leaving the main loop
+// kMainSliceTicks to decode frames (stop-all, the watchdog). Edges are late then by up to a
+// slice, never lost.
 static const uint16_t kMaxIsrTicks = 16000;
 static const uint16_t kMainSliceTicks = 1600;
 
@@ -133,7 +143,7 @@ static const uint8_t kPulseUsMax = 10;
 // Default travel (steps) before soft limits reverse the motor, until the host configures it.
 static const uint32_t kDefaultTravelSteps = 3200;
 
-static_assert(kHandOverTicks >= 2u * kMaxIsrTicks, "hand-over: longer than two step-ISR holds");
+static_assert(kTakeTicks > kWakeTicks + kTakeUrgentTicks, "the step ISR finds every entry before it is urgent");
 static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");

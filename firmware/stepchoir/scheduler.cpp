@@ -25,7 +25,7 @@ const uint8_t kLimits = 0x20;      // soft limits on (travel configured)
 const uint8_t kRestrike = 0x40;    // a timed note change waits for its time (restrike_at)
 
 // What the main loop asks of a motor; the step ISR carries it out (see post()).
-enum Command : uint8_t { kCmdNone = 0, kCmdPlay, kCmdPlayAt };
+enum Command : uint8_t { kCmdNone = 0, kCmdPlay };
 
 struct Motor {
   uint32_t deadline;          // ticks of the next STEP rising edge (of the last one while played)
@@ -46,12 +46,12 @@ struct Motor {
   uint32_t start_q8;          // ramp: first period (0 = no ramp)
   uint32_t released_since;    // ticks: the switch has read released since then
   uint32_t restrike_at;       // ticks: when a timed note change on a sounding motor strikes
+  uint32_t next_rough;        // played, not yet bookkept: about when its next edge is due
   uint16_t pressed_steps;     // steps taken while the switch still reads pressed
   int32_t calibration_steps;  // how far the last switch press moved the counted position
   // Mailbox, written by the main loop with interrupts off, read by the step ISR.
   uint8_t cmd;                // Command
   uint32_t cmd_period_q8;
-  uint32_t cmd_at;
 };
 
 Motor g_motor[board::active::kMotorCount];
@@ -65,6 +65,27 @@ uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 
 volatile uint16_t g_reversals;
 volatile uint16_t g_late_edges;
 volatile uint8_t g_motor_fault;
+// Timestamped entries (kMsgAt): a ring the main loop fills and the step ISR empties, each
+// entry cfg::kTakeTicks before its time, so that it starts or strikes its motor exactly on
+// the time whatever the main loop is busy with. One writer a side, no lock: the main loop
+// writes a slot, then counts it in g_q_put; the ISR reads the oldest, then counts it in
+// g_q_taken (free-running one-byte counts: used = put - taken).
+struct AtSlot {
+  uint32_t at;
+  uint32_t period_q8;
+  uint8_t motor;
+};
+AtSlot g_q[cfg::kQueueSize];
+volatile uint8_t g_q_put, g_q_taken;
+uint8_t g_q_put_idx;   // main loop's next slot
+uint8_t g_q_take_idx;  // step ISR's next slot (the main loop moves it only with interrupts off)
+volatile uint8_t g_late_entries;  // entries taken after their time (played at once)
+volatile uint8_t g_late_motor;    // the last one's motor
+// Starvation of the main loop (see the ISR): board time when it last finished a pass, and the
+// ticks the step ISR has run since then (its invocations that returned).
+volatile uint32_t g_main_pass;
+uint32_t g_isr_busy;
+const uint8_t kIsrEntryExitTicks = 160;  // the step ISR's prologue and epilogue, about
 // Between two ISR invocations g_played and (unless the main loop just posted)
 // g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
 
@@ -98,7 +119,9 @@ void order_remove(Motor *m) {
 }
 
 // Called from: step ISR and main loop, interrupts off. Current board time in ticks.
-inline uint32_t now_locked() { return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed); }
+__attribute__((always_inline)) inline uint32_t now_locked() {
+  return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed);
+}
 
 // A burst never runs into a played motor's own next step: it chains at most one edge of each
 // motor, each due within kComebackTicks of the one before, and the shortest period leaves
@@ -124,7 +147,7 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
 // off longer than kMaxOffTicks: then a waiting UART byte is let in first.
 // Cycles with interrupts off: at most kMaxOffTicks + one raise and its merged followers (~70).
-__attribute__((noinline)) void burst() {
+__attribute__((always_inline)) inline void burst() {
   const uint8_t active = g_active;
   uint8_t n = 1;
   for (uint32_t last = g_order[0]->deadline; n < active; ++n) {
@@ -210,7 +233,9 @@ __attribute__((noinline)) void burst() {
   for (uint8_t i = 0; i < n; ++i) {
     if ((int16_t)(raised[i] - (uint16_t)g_order[i]->deadline) > (int16_t)kLateTicks)
       g_late_edges = (uint16_t)(g_late_edges + 1);
-    g_played[g_played_count++] = g_order[i];
+    Motor *p = g_order[i];
+    p->next_rough = p->deadline + (p->period_q8 >> 8);
+    g_played[g_played_count++] = p;
   }
   for (uint8_t i = n; i < active; ++i) g_order[i - n] = g_order[i];
   g_active = (uint8_t)(active - n);
@@ -291,12 +316,16 @@ inline void next_deadline(Motor &m) {
 // Called from: step ISR (interrupts on), after a burst. Bookkeeping of the played motor whose
 // next step comes first: position, endstops and soft limits of the step it took (a reversal
 // turns DIR before its next step), then its next deadline and its place in the order.
-__attribute__((noinline)) void bookkeep_one() {
+__attribute__((always_inline)) inline void bookkeep_one() {
   uint8_t best = 0;
-  for (uint8_t i = 1; i < g_played_count; ++i)
-    if ((int32_t)(g_played[i]->deadline + (g_played[i]->period_q8 >> 8) - g_played[best]->deadline -
-                  (g_played[best]->period_q8 >> 8)) < 0)
+  uint32_t best_next = g_played[0]->next_rough;
+  for (uint8_t i = 1; i < g_played_count; ++i) {
+    const uint32_t next = g_played[i]->next_rough;
+    if ((int32_t)(next - best_next) < 0) {
       best = i;
+      best_next = next;
+    }
+  }
   Motor *m = g_played[best];
   g_played[best] = g_played[--g_played_count];
   account_step(*m);
@@ -358,23 +387,14 @@ void retune(Motor &m, uint32_t period_q8) {
   order_insert(&m);
 }
 
-// Called from: step ISR (interrupts on). Carries out one posted command.
-__attribute__((noinline)) void apply_one() {
-  uint8_t mi = 0;
-  while (!(g_cmd_mask & (1u << mi))) ++mi;
-  Motor &m = g_motor[mi];
-  uint8_t cmd;
-  uint32_t period, at;
-  cli();
-  cmd = m.cmd;
-  period = m.cmd_period_q8;
-  at = m.cmd_at;
-  m.cmd = kCmdNone;
-  g_cmd_mask &= (uint8_t)~(1u << mi);
-  const uint32_t now = now_locked();
-  sei();
+// Called from: step ISR (interrupts on). Motor m takes period (sc::kPeriodSilent: silence)
+// now, or, timed, exactly at board time `at`. Returns false when a timed change came too late
+// for its time (it is made at once).
+__attribute__((noinline)) bool apply(Motor &m, uint32_t period, bool want_timed, uint32_t at) {
+  uint32_t now;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = now_locked(); }
   const uint32_t soonest = now + cfg::kStartLeadTicks;
-  const bool timed = cmd == kCmdPlayAt && (int32_t)(at - soonest) > 0;
+  const bool timed = want_timed && (int32_t)(at - soonest) > 0;
   if (m.period_q8 == 0 && period == sc::kPeriodSilent) {
     m.flags &= (uint8_t)~(kRamp | kRestrike);  // silent already (a timed silence may be pending)
   } else if (period == sc::kPeriodSilent && (!timed || (int32_t)(m.deadline - at) >= 0)) {
@@ -399,6 +419,44 @@ __attribute__((noinline)) void apply_one() {
     m.restrike_at = at;
     m.flags = (uint8_t)((m.flags & ~kRamp) | kRestrike);
   }
+  return timed || !want_timed;
+}
+
+// Called from: step ISR (interrupts on). Carries out one command from a motor's mailbox.
+__attribute__((noinline)) void apply_one() {
+  uint8_t mi = 0;
+  while (!(g_cmd_mask & (1u << mi))) ++mi;
+  Motor &m = g_motor[mi];
+  uint32_t period;
+  cli();
+  period = m.cmd_period_q8;
+  m.cmd = kCmdNone;
+  g_cmd_mask &= (uint8_t)~(1u << mi);
+  sei();
+  apply(m, period, false, 0);
+}
+
+// Called from: step ISR. The oldest timestamped entry, when it is due within kTakeTicks and
+// its motor holds no timed change still to come (a second would replace it; the entry waits
+// until that one has become the motor's next edge). Null otherwise.
+inline const AtSlot *entry_due(uint32_t now) {
+  if (g_q_put == g_q_taken) return 0;
+  const AtSlot &e = g_q[g_q_take_idx];
+  const int32_t ahead = (int32_t)(e.at - now);
+  if (ahead > (int32_t)cfg::kTakeTicks) return 0;
+  if ((g_motor[e.motor].flags & kRestrike) && ahead > (int32_t)cfg::kStartLeadTicks) return 0;
+  return &e;
+}
+
+// Called from: step ISR (interrupts on). Takes the oldest timestamped entry (entry_due).
+__attribute__((noinline)) void take_one(const AtSlot *e) {
+  const AtSlot slot = *e;
+  g_q_take_idx = (uint8_t)(g_q_take_idx + 1 == cfg::kQueueSize ? 0 : g_q_take_idx + 1);
+  g_q_taken = (uint8_t)(g_q_taken + 1);
+  if (!apply(g_motor[slot.motor], slot.period_q8, true, slot.at)) {
+    g_late_motor = slot.motor;
+    g_late_entries = (uint8_t)(g_late_entries + 1);
+  }
 }
 
 // Called from: step ISR, interrupts off. Arms OCR1A kEarlyTicks before the next deadline, or
@@ -418,21 +476,26 @@ __attribute__((noinline)) bool arm() {
   return true;
 }
 
-// Called from: main loop. Leaves a command in motor mi's mailbox and makes sure the step ISR
-// comes for it within kPostLeadTicks. Interrupts off for about 60 cycles.
-void post(uint8_t mi, uint8_t cmd, uint32_t period_q8, uint32_t at) {
+// Called from: main loop, interrupts off. Makes sure the step ISR comes within kPostLeadTicks.
+void wake_soon() {
+  const uint32_t soon = now_locked() + cfg::kPostLeadTicks;
+  if ((int32_t)(g_armed - soon) > 0) {
+    g_armed = soon;
+    OCR1A = (uint16_t)soon;
+    TIFR1 = _BV(OCF1A);
+  }
+}
+
+// Called from: main loop. Leaves a period in motor mi's mailbox (kCmdPlay: from now on) and
+// makes sure the step ISR comes for it within kPostLeadTicks. Interrupts off for about 60
+// cycles.
+void post(uint8_t mi, uint32_t period_q8) {
   Motor &m = g_motor[mi];
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    m.cmd = cmd;
+    m.cmd = kCmdPlay;
     m.cmd_period_q8 = period_q8;
-    m.cmd_at = at;
     g_cmd_mask |= (uint8_t)(1u << mi);
-    const uint32_t soon = now_locked() + cfg::kPostLeadTicks;
-    if ((int32_t)(g_armed - soon) > 0) {
-      g_armed = soon;
-      OCR1A = (uint16_t)soon;
-      TIFR1 = _BV(OCF1A);
-    }
+    wake_soon();
   }
 }
 
@@ -503,6 +566,8 @@ void set_motion(uint8_t mi, const Motion &motion) {
 
 void rescue_missed_compare() {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    g_main_pass = now_locked();
+    g_isr_busy = 0;
     const int16_t past = (int16_t)(TCNT1 - (uint16_t)g_armed);
     if (past > (int16_t)cfg::kRescueTicks) {  // the compare should have fired long ago
       g_armed = now_locked() + cfg::kMinLeadTicks;
@@ -520,7 +585,10 @@ void silence_all() {
     for (uint8_t i = 0; i < g_count; ++i) {
       g_motor[i].period_q8 = 0;
       g_motor[i].cmd = kCmdNone;
+      g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike);
     }
+    g_q_taken = g_q_put;  // the queue's entries with them
+    g_q_take_idx = g_q_put_idx;
   }
 }
 
@@ -548,18 +616,38 @@ ISR(TIMER1_COMPA_vect) {
   for (;;) {
     const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
     g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
-    // Overload: past kMaxIsrTicks the ISR stops waiting for edges while work is pending, and
-    // returns as soon as the work is done, leaving the main loop kMainSliceTicks. Edges are then
-    // late, but frames, stop-all and the watchdog keep working.
-    const bool overdue = (uint16_t)(TCNT1 - entered) > cfg::kMaxIsrTicks;
-    if (g_active && !overdue) {
+    // Overload: kMaxIsrTicks into this invocation, or when the main loop has not finished a
+    // pass for 2 * kMaxIsrTicks and this ISR took 3/4 of that time, the ISR stops waiting for
+    // edges (it plays only those already due) and returns as soon as its work is done,
+    // leaving the main loop kMainSliceTicks. Edges are then late, but frames, stop-all and the
+    // watchdog keep working. (With every motor near the top of its range the ISR returns
+    // often, but into gaps that leave the main loop a few cycles each: counted per invocation
+    // only, a pass of the main loop took up to 16 ms and clock replies stopped. A main loop busy
+    // with frames at full line speed takes long passes too, but has the CPU: no slices then;
+    // after 1 ms instead of 2 they made edges late in `test_e2e "link: * decodes every *"`.)
+    const uint16_t in_isr = (uint16_t)(TCNT1 - entered);
+    const uint32_t since_main = now - g_main_pass;
+    const bool overdue = in_isr > cfg::kMaxIsrTicks ||
+                         (since_main > 2ul * cfg::kMaxIsrTicks && g_isr_busy + in_isr > since_main - (since_main >> 2));
+    const AtSlot *entry = entry_due(now);
+    // An entry close to its time goes before any edge (with every motor high, edges are due
+    // all the time and it would wait until too late); not before the played motors' bookkeeping
+    // (a played motor is in neither list: apply() would put it in the order twice).
+    if (entry && !g_played_count && (int32_t)(entry->at - now) < (int32_t)cfg::kTakeUrgentTicks) {
+      take_one(entry);
+      continue;
+    }
+    if (g_active) {
       // Wait for the edge when the next piece of work might not fit before it, or, with no
       // work left, when it is too close to return and come back for it. A played motor's
-      // bookkeeping comes first whenever it fits: its own next edge may follow soon.
+      // bookkeeping comes first whenever it fits: its own next edge may follow soon. A
+      // command or a due entry waits for close edges only kCmdWaitTicks into the invocation
+      // (with every motor high an edge is always close).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      const uint16_t wait_within = g_played_count ? cfg::kBookkeepTicks
-                                   : g_cmd_mask   ? cfg::kSoonTicks
-                                                  : cfg::kEarlyTicks + cfg::kMinLeadTicks;
+      const uint16_t wait_within = overdue                  ? 0
+                                   : g_played_count         ? cfg::kBookkeepTicks
+                                   : (g_cmd_mask || entry)  ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
+                                                            : cfg::kEarlyTicks + cfg::kMinLeadTicks;
       if (ahead <= (int32_t)wait_within) {
         burst();
         continue;
@@ -569,6 +657,8 @@ ISR(TIMER1_COMPA_vect) {
       bookkeep_one();
     } else if (g_cmd_mask) {
       apply_one();
+    } else if (entry) {
+      take_one(entry);
     } else {
       cli();
       if (overdue) {
@@ -580,6 +670,7 @@ ISR(TIMER1_COMPA_vect) {
         continue;
       }
       TIMSK1 |= _BV(OCIE1A);
+      g_isr_busy += (uint16_t)(TCNT1 - entered) + kIsrEntryExitTicks;
       return;  // reti sets I again
     }
   }
@@ -595,21 +686,31 @@ uint32_t now_ticks() {
 
 void set_period(uint8_t m, uint32_t period_q8) {
   if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
-  sched::post(m, sched::kCmdPlay, period_q8, 0);
+  sched::post(m, period_q8);
 }
 
-void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
+uint8_t queue_used() { return (uint8_t)(sched::g_q_put - sched::g_q_taken); }
+
+void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
   if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
-  sched::post(m, sched::kCmdPlayAt, period_q8, at_ticks);
+  sched::AtSlot &slot = sched::g_q[sched::g_q_put_idx];
+  slot.at = at_ticks;
+  slot.period_q8 = period_q8;
+  slot.motor = m;
+  sched::g_q_put_idx = (uint8_t)(sched::g_q_put_idx + 1 == cfg::kQueueSize ? 0 : sched::g_q_put_idx + 1);
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    sched::g_q_put = (uint8_t)(sched::g_q_put + 1);  // the slot is the ISR's from here on
+    sched::wake_soon();  // an entry due before the ISR's next wake is taken in time
+  }
 }
 
-bool timed_change_pending(uint8_t m) {
-  bool r;
+uint8_t late_entries(uint8_t *motor) {
+  uint8_t n;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const sched::Motor &mo = sched::g_motor[m];
-    r = mo.cmd == sched::kCmdPlayAt || (mo.flags & sched::kRestrike);
+    n = sched::g_late_entries;
+    *motor = sched::g_late_motor;
   }
-  return r;
+  return n;
 }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) {

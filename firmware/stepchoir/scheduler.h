@@ -18,8 +18,12 @@
 // less than kMergeTicks apart are raised as a pair (the error split between them). Between
 // bursts the ISR does its other work in small pieces, each only when no edge is due within
 // kSoonTicks: a played motor's next deadline and sorted place, a step's position and endstop
-// bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox.
-// The main loop never touches the order itself: its critical sections stay short.
+// bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox,
+// a timestamped entry from the queue (hal::queue_at), taken 3 ms before its time so that it
+// starts or strikes its motor on the tick whatever the main loop is doing.
+// The main loop never touches the order itself: its critical sections stay short. When the
+// ISR has kept it from finishing a pass for 2 ms, taking 3/4 of the CPU, the ISR leaves it
+// slices (cfg::kMaxIsrTicks, kMainSliceTicks) and its edges fall late instead.
 // Measured on the virtual board: bench/results/pitch-<board>.md.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H

@@ -9,18 +9,19 @@ uint8_t endstops(uint8_t m) { return m < 3 ? (sc::kEndstopMin | sc::kEndstopMax 
 const char *board_name() { return "uno_cnc_shield_v3"; }
 uint32_t now_ticks() { return g_hal.now; }
 void set_period(uint8_t m, uint32_t p) { g_hal.calls.push_back({FakeHal::kSet, m, p, 0}); g_hal.period[m] = p; }
-void set_period_at(uint8_t m, uint32_t p, uint32_t at) {
+uint8_t queue_used() { return g_hal.queued; }
+void queue_at(uint8_t m, uint32_t p, uint32_t at) {
   g_hal.calls.push_back({FakeHal::kSetAt, m, p, at});
-  g_hal.period[m] = p;
-  g_hal.pending[m] = true;
-  g_hal.pending_at[m] = at;
+  ++g_hal.queued;
 }
-bool timed_change_pending(uint8_t m) {
-  return g_hal.pending[m] && static_cast<int32_t>(g_hal.now - g_hal.pending_at[m]) < 0;
+uint8_t late_entries(uint8_t *motor) {
+  *motor = g_hal.late_motor;
+  return g_hal.late;
 }
 void stop_all() {
   g_hal.calls.push_back({FakeHal::kStop, 0, 0, 0});
   for (auto &p : g_hal.period) p = 0;
+  g_hal.queued = 0;
 }
 uint8_t configure(const sc::ConfigBody &c) {
   g_hal.configs.push_back(c);

@@ -19,9 +19,8 @@ struct FakeHal {
   uint8_t motors = 4;
   uint32_t now = 1000;
   std::array<uint32_t, 8> period{};
-  // A timed change is the step ISR's until its time (the real one lets go at the edge before).
-  std::array<uint32_t, 8> pending_at{};
-  std::array<bool, 8> pending{};
+  uint8_t queued = 0;        // entries in the queue (the step ISR's side is the test's)
+  uint8_t late = 0, late_motor = 0;  // what hal::late_entries() reports
   std::vector<Call> calls;
   std::vector<sc::ConfigBody> configs;
   std::vector<uint8_t> sent;                   // encoded reply bytes

@@ -96,11 +96,7 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
       CHECK(g_hal.configs[0].travel_steps == v.num("travel_steps"));
       CHECK(g_hal.replies.empty());
     } else if (v.kind == "at") {
-      CHECK(c.queue_used() == 1);
-      CHECK(g_hal.calls.empty());
-      feed(c, wire({sc::kMsgWatchdog, 0, 0}));     // the jump in time below is no silence
-      g_hal.now = uint32_t(v.num("ticks")) - 100;  // inside the hand-over lead
-      c.poll();
+      CHECK(c.queue_used() == 1);  // queued for the step ISR, with its time
       REQUIRE(g_hal.calls.size() == 1);
       CHECK(g_hal.calls[0].kind == FakeHal::kSetAt);
       CHECK(g_hal.calls[0].at_ticks == v.num("ticks"));
@@ -226,57 +222,52 @@ TEST_CASE("watchdog timeout is settable and 0 turns it off") {
   CHECK(c.watchdog_tripped());
 }
 
-TEST_CASE("timestamped entries start in order - late ones at once - a full queue refuses") {
+TEST_CASE("timestamped entries are queued in order - a chord all or nothing - a full queue refuses") {
   auto &c = fresh();
-  auto at = [&](uint32_t t, uint8_t m, uint32_t p) { feed_at(c, t, m, p); };
-  at(g_hal.now + 100000, 0, 9309091);
-  at(g_hal.now + 200000, 1, 9309091);
-  c.poll();
-  CHECK(g_hal.calls.empty());
-  g_hal.now += 100000;
-  c.poll();
-  REQUIRE(g_hal.calls.size() == 1);
+  feed_at(c, g_hal.now + 100000, 0, 9309091);
+  feed_at(c, g_hal.now + 200000, 1, 9309091);
+  REQUIRE(g_hal.calls.size() == 2);
   CHECK(g_hal.calls[0].motor == 0);
-  at(g_hal.now - 5, 2, 9309091);  // behind entry 1 in the queue
-  g_hal.now += 100000;
-  c.poll();
-  REQUIRE(g_hal.calls.size() == 3);
   CHECK(g_hal.calls[1].motor == 1);
-  CHECK(g_hal.calls[2].motor == 2);
-  CHECK(g_hal.calls[2].kind == FakeHal::kSet);  // late: played at once
-  CHECK(c.last_error() == sc::kErrLate);
-  for (int i = 0; i < cfg::kQueueSize; ++i) at(g_hal.now + 1000000, 3, 9309091);
+  CHECK(g_hal.calls[1].at_ticks == g_hal.now + 200000);
+  for (int i = 2; i < cfg::kQueueSize; ++i) feed_at(c, g_hal.now + 1000000, 3, 9309091);
   CHECK(c.queue_used() == cfg::kQueueSize);
   g_hal.replies.clear();
-  at(g_hal.now + 1000000, 3, 9309091);
+  g_hal.calls.clear();
+  feed_at(c, g_hal.now + 1000000, 3, 9309091);
+  CHECK(g_hal.calls.empty());
   REQUIRE(g_hal.replies.size() == 1);
   CHECK(g_hal.replies[0][1] == sc::kErrQueueFull);
   feed(c, wire({sc::kMsgStopAll}));
   CHECK(c.queue_used() == 0);
+  // A two-entry chord with room for one: neither goes in.
+  for (int i = 0; i < cfg::kQueueSize - 1; ++i) feed_at(c, g_hal.now + 1000000, 3, 9309091);
+  g_hal.calls.clear();
+  std::vector<uint8_t> pl(13);
+  pl[0] = sc::kMsgAt;
+  sc::put_u32(&pl[1], g_hal.now + 1000000);
+  sc::put_entry(&pl[5], 0, 9309091);
+  sc::put_entry(&pl[9], 1, 9309091);
+  feed(c, wire(pl));
+  CHECK(g_hal.calls.empty());
+  CHECK(c.queue_used() == cfg::kQueueSize - 1);
 }
 
-TEST_CASE("a motor's second timed change waits until the step ISR has taken its first") {
+TEST_CASE("an entry the step ISR took after its time is answered with error late, naming its motor") {
   auto &c = fresh();
-  auto at = [&](uint32_t t, uint8_t m, uint32_t p) { feed_at(c, t, m, p); };
-  // Motor 0 twice within the hand-over window, motor 1 after them.
-  const uint32_t t0 = g_hal.now + 2 * cfg::kHandOverTicks;
-  at(t0, 0, 9309091);
-  at(t0 + 1000, 0, sc::kPeriodSilent);
-  at(t0 + 2000, 1, 9309091);
-  g_hal.now = t0 - cfg::kHandOverTicks + 10;  // all three inside the window
   c.poll();
-  REQUIRE(g_hal.calls.size() == 1);           // the first only: the second would replace it
-  CHECK(g_hal.calls[0].at_ticks == t0);
-  g_hal.now = t0 - 1;
+  CHECK(g_hal.replies.empty());
+  g_hal.late = 1;  // the ISR made it at once
+  g_hal.late_motor = 2;
   c.poll();
-  CHECK(g_hal.calls.size() == 1);
-  g_hal.now = t0;                             // the first is the motor's edge now
-  c.poll();
-  REQUIRE(g_hal.calls.size() == 3);
-  CHECK(g_hal.calls[1].kind == FakeHal::kSetAt);  // still ahead of its time: on its tick
-  CHECK(g_hal.calls[1].at_ticks == t0 + 1000);
-  CHECK(g_hal.calls[2].motor == 1);
-  CHECK(c.last_error() == sc::kErrNone);
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][0] == sc::kMsgError);
+  CHECK(g_hal.replies[0][1] == sc::kErrLate);
+  CHECK(g_hal.replies[0][2] == sc::kMsgAt);
+  CHECK(g_hal.replies[0][3] == 2);
+  CHECK(c.last_error() == sc::kErrLate);
+  c.poll();  // once
+  CHECK(g_hal.replies.size() == 1);
 }
 
 TEST_CASE("config is range-checked before it reaches the driver") {
