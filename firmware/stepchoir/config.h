@@ -88,7 +88,7 @@ static const uint16_t kCmdWaitTicks = 4000;
 // An edge due within this long is waited for rather than starting a played motor's bookkeeping
 // (ticks): bookkeep_one (about 300 cycles) and the ISR's loop back into a burst (about 250),
 // stretched by nested UART ISRs, plus kCliLeadTicks.
-static const uint16_t kBookkeepTicks = 700;
+static const uint16_t kBookkeepTicks = 1000;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is

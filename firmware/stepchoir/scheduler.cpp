@@ -630,10 +630,12 @@ ISR(TIMER1_COMPA_vect) {
     const bool overdue = in_isr > cfg::kMaxIsrTicks ||
                          (since_main > 2ul * cfg::kMaxIsrTicks && g_isr_busy + in_isr > since_main - (since_main >> 2));
     const AtSlot *entry = entry_due(now);
-    // An entry close to its time goes before any edge (with every motor high, edges are due
-    // all the time and it would wait until too late); not before the played motors' bookkeeping
-    // (a played motor is in neither list: apply() would put it in the order twice).
-    if (entry && !g_played_count && (int32_t)(entry->at - now) < (int32_t)cfg::kTakeUrgentTicks) {
+    // An entry close to its time goes before any edge not yet due (with every motor high,
+    // edges are close all the time and it would wait until too late), once the played motors'
+    // bookkeeping is done (a played motor is in neither list: apply() would put it in the order
+    // twice); meanwhile only edges already due are played.
+    const bool urgent = entry && (int32_t)(entry->at - now) < (int32_t)cfg::kTakeUrgentTicks;
+    if (urgent && !g_played_count) {
       take_one(entry);
       continue;
     }
@@ -644,10 +646,11 @@ ISR(TIMER1_COMPA_vect) {
       // command or a due entry waits for close edges only kCmdWaitTicks into the invocation
       // (with every motor high an edge is always close).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      const uint16_t wait_within = overdue                  ? 0
-                                   : g_played_count         ? cfg::kBookkeepTicks
-                                   : (g_cmd_mask || entry)  ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
-                                                            : cfg::kEarlyTicks + cfg::kMinLeadTicks;
+      const uint16_t wait_within = overdue || urgent ? 0
+                                   : g_played_count    ? cfg::kBookkeepTicks
+                                   : g_cmd_mask        ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
+                                   : entry             ? cfg::kSoonTicks
+                                                       : cfg::kEarlyTicks + cfg::kMinLeadTicks;
       if (ahead <= (int32_t)wait_within) {
         burst();
         continue;
