@@ -28,7 +28,8 @@ static const uint8_t kDeferBytes = 16;
 // plus kTakeUrgentTicks: an idle ISR finds every entry before it is urgent. Handed over by
 // the main loop instead, entries came late when every motor sounded high and the ISR left it
 // few cycles: 100-400 us late in a black-MIDI song (`test_e2e "play: a black-MIDI*"`), 20 of
-// 160 with four top notes even with a 2 ms lead (`test_e2e "at: entries keep*"`).
+// 160 with four top notes even with a 2 ms lead (`test_e2e "at: entries keep*"`, then at MIDI
+// 105-108).
 static const uint16_t kTakeTicks = 48000;
 // Within this long of its time (ticks), an entry is taken before any edge, however busy the
 // step ISR is (taking it costs about 400 cycles; the edge waits that long at most).

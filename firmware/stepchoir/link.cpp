@@ -105,6 +105,8 @@ void begin() {
   UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
 
+uint8_t rx_head() { return g_rx_head; }
+
 uint8_t read_some(uint8_t *out, uint8_t max) {
   const uint8_t head = g_rx_head;  // the receive ISR only moves head
   uint8_t tail = g_rx_tail, n = 0;

@@ -22,7 +22,7 @@
 // a timestamped entry from the queue (hal::queue_at), taken 3 ms before its time so that it
 // starts or strikes its motor on the tick whatever the main loop is doing.
 // The main loop never touches the order itself: its critical sections stay short. When the
-// ISR has kept it from finishing a pass for 2 ms, taking 3/4 of the CPU, the ISR leaves it
+// ISR has kept it from beginning a pass for 8 ms, taking 3/4 of the CPU, the ISR leaves it
 // slices (cfg::kMaxIsrTicks, kMainSliceTicks) and its edges fall late instead.
 // Measured on the virtual board: bench/results/pitch-<board>.md.
 #ifndef STEPCHOIR_SCHEDULER_H
@@ -54,6 +54,10 @@ void init(uint8_t motor_count, const Wiring *wiring);
 
 // Called from: main loop. Replaces one motor's motion settings.
 void set_motion(uint8_t m, const Motion &motion);
+
+// Called from: main loop, at the start of every pass. Tells the step ISR the main loop runs
+// (its overload guard leaves it slices when it has not for 8 ms).
+void main_loop_alive();
 
 // Called from: main loop, every pass. Defence in depth: if the step ISR's compare is long
 // overdue (never seen on a chip; simavr has been seen to miss one armed close ahead), arms it

@@ -19,6 +19,7 @@ void setup() {
 // other pieces wait (cfg::kDeferPasses, cfg::kDeferBytes), so a frame's last byte is handled
 // at once rather than after the rest of a pass.
 void loop() {
+  sched::main_loop_alive();
   static uint8_t deferred_passes = 0, deferred_bytes = 0;
   uint8_t bytes[32];
   const uint8_t n = link::read_some(bytes, sizeof bytes);

@@ -632,6 +632,31 @@ TEST_CASE("safety: uno overloaded by four fast motors still answers - obeys stop
   }
 }
 
+TEST_CASE("safety: uno with four motors at the top of the range still stops on the watchdog") {
+  // MIDI 105-108 on all four motors, 15,400 steps a second: more than the step ISR can time,
+  // so it keeps the main loop out as long as its overload guards allow. When the host goes
+  // quiet the watchdog (main loop) must still stop every motor on time.
+  Rig r("safety-top-chord-uno", "uno", {"--trace-frames"});
+  std::vector<sc::PeriodEntry> chord;
+  for (uint8_t m = 0; m < 4; ++m) chord.push_back({m, hz_to_period_q8(note_hz(108 - m), r.caps.f_cpu_hz)});
+  r.b.send(periods_payload(chord));  // and then nothing: the host is gone
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const tr::Trace t = r.finish();
+  REQUIRE(!t.frame_ends.empty());
+  const uint64_t last_frame = t.frame_ends.back();
+  const double watchdog_s = kDefaultWatchdogMs / 1000.0;
+  REQUIRE((double(t.end_cycle) - double(last_frame)) / t.f_cpu_hz > watchdog_s + 0.1);  // the run went on past it
+  for (int m = 0; m < 4; ++m) {
+    INFO("motor " << m);
+    REQUIRE(t.motor[m].steps.size() > 100);  // it was playing
+    const double after_s = (double(t.motor[m].steps.back().rise_cycle) - double(last_frame)) / t.f_cpu_hz;
+    INFO("last step " << after_s * 1000 << " ms after the last frame");
+    CHECK(after_s > watchdog_s - 0.01);   // it played on until the watchdog
+    CHECK(after_s <= watchdog_s + 0.01);  // and stopped then
+    std::printf("top chord uno motor %d: last step %.1f ms after the last frame\n", m, after_s * 1000);
+  }
+}
+
 TEST_CASE("safety: uno stuck switch - the motor ignores it - reports it and keeps to its travel") {
   // Motor 0's shared switch reads pressed all the time: the first step takes it for an end and
   // turns round; 400 steps later the firmware calls it stuck, undoes the position it set and
