@@ -80,10 +80,11 @@ static const uint16_t kEarlyTicks = 600;
 // kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
 static const uint16_t kSoonTicks = 1200;
 
-// A command or a due queue entry waits for edges due within kSoonTicks only this long into a
-// step ISR invocation (ticks): with every motor near the top of its range an edge is always
-// that close, and a command (a live note) waited until the overload guard, 1 ms or more. Past
-// it the command is carried out at once; the next edge may come up to its ~350 cycles late.
+// A live command waits for edges due within kSoonTicks only this long into a step ISR
+// invocation (ticks): with every motor near the top of its range an edge is always that close,
+// and it waited until the overload guard, 1 ms or more. Past it the command is carried out at
+// once; the next edge may come up to its ~350 cycles late. (Queue entries do not: forced the
+// same way, they made the bench's worst-note p99 9-35 us; they have kTakeUrgentTicks.)
 static const uint16_t kCmdWaitTicks = 4000;
 
 // An edge due within this long is waited for rather than starting a played motor's bookkeeping

@@ -25,9 +25,6 @@ const uint8_t kFault = 0x10;       // switch found stuck: ignored from now on
 const uint8_t kLimits = 0x20;      // soft limits on (travel configured)
 const uint8_t kRestrike = 0x40;    // a timed note change waits for its time (restrike_at)
 
-// What the main loop asks of a motor; the step ISR carries it out (see post()).
-enum Command : uint8_t { kCmdNone = 0, kCmdPlay };
-
 struct Motor {
   uint32_t deadline;          // ticks of the next STEP rising edge (of the last one while played)
   uint32_t period_q8;         // current period, ticks q8 (0 = silent)
@@ -50,8 +47,8 @@ struct Motor {
   uint32_t next_rough;        // played, not yet bookkept: about when its next edge is due
   uint16_t pressed_steps;     // steps taken while the switch still reads pressed
   int32_t calibration_steps;  // how far the last switch press moved the counted position
-  // Mailbox, written by the main loop with interrupts off, read by the step ISR.
-  uint8_t cmd;                // Command
+  // Mailbox, written by the main loop with interrupts off, read by the step ISR (bit m of
+  // g_cmd_mask says it holds a period).
   uint32_t cmd_period_q8;
 };
 
@@ -439,7 +436,6 @@ __attribute__((noinline)) void apply_one() {
   uint32_t period;
   cli();
   period = m.cmd_period_q8;
-  m.cmd = kCmdNone;
   g_cmd_mask &= (uint8_t)~(1u << mi);
   sei();
   apply(m, period, false, 0);
@@ -495,13 +491,12 @@ void wake_soon() {
   }
 }
 
-// Called from: main loop. Leaves a period in motor mi's mailbox (kCmdPlay: from now on) and
+// Called from: main loop. Leaves a period in motor mi's mailbox (to play from now on) and
 // makes sure the step ISR comes for it within kPostLeadTicks. Interrupts off for about 60
 // cycles.
 void post(uint8_t mi, uint32_t period_q8) {
   Motor &m = g_motor[mi];
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    m.cmd = kCmdPlay;
     m.cmd_period_q8 = period_q8;
     g_cmd_mask |= (uint8_t)(1u << mi);
     wake_soon();
@@ -529,7 +524,6 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     m.sw_down_mask = pio::mask(w.min_switch);
     m.flags = kUp | kArmed;
     m.period_q8 = 0;
-    m.cmd = kCmdNone;
     m.pulse_ticks = (uint16_t)(cfg::kPulseUsA4988 * (F_CPU / 1000000ul));
     Motion motion = {cfg::kDefaultTravelSteps, m.pulse_ticks, false, 0, 0};
     set_motion(i, motion);
@@ -598,7 +592,6 @@ void silence_all() {
     g_cmd_mask = 0;
     for (uint8_t i = 0; i < g_count; ++i) {
       g_motor[i].period_q8 = 0;
-      g_motor[i].cmd = kCmdNone;
       g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike);
     }
     g_q_taken = g_q_put;  // the queue's entries with them
@@ -658,9 +651,9 @@ ISR(TIMER1_COMPA_vect) {
     if (g_active) {
       // Wait for the edge when the next piece of work might not fit before it, or, with no
       // work left, when it is too close to return and come back for it. A played motor's
-      // bookkeeping comes first whenever it fits: its own next edge may follow soon. A
-      // command or a due entry waits for close edges only kCmdWaitTicks into the invocation
-      // (with every motor high an edge is always close).
+      // bookkeeping comes first whenever it fits: its own next edge may follow soon. A live
+      // command waits for close edges only kCmdWaitTicks into the invocation (with every motor
+      // high an edge is always close); a due entry has until it is urgent (above).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
       const uint16_t wait_within = overdue || urgent ? 0
                                    : g_played_count    ? cfg::kBookkeepTicks

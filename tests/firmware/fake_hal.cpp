@@ -11,7 +11,7 @@ uint32_t now_ticks() { return g_hal.now; }
 void set_period(uint8_t m, uint32_t p) { g_hal.calls.push_back({FakeHal::kSet, m, p, 0}); g_hal.period[m] = p; }
 uint8_t queue_used() { return g_hal.queued; }
 void queue_at(uint8_t m, uint32_t p, uint32_t at) {
-  g_hal.calls.push_back({FakeHal::kSetAt, m, p, at});
+  g_hal.calls.push_back({FakeHal::kQueued, m, p, at});
   ++g_hal.queued;
 }
 uint8_t late_entries(uint8_t *motor) {

@@ -9,7 +9,7 @@
 #include "hal.h"
 
 struct FakeHal {
-  enum Kind { kSet, kSetAt, kStop };
+  enum Kind { kSet, kQueued, kStop };
   struct Call {
     Kind kind;
     uint8_t motor;

@@ -98,7 +98,7 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
     } else if (v.kind == "at") {
       CHECK(c.queue_used() == 1);  // queued for the step ISR, with its time
       REQUIRE(g_hal.calls.size() == 1);
-      CHECK(g_hal.calls[0].kind == FakeHal::kSetAt);
+      CHECK(g_hal.calls[0].kind == FakeHal::kQueued);
       CHECK(g_hal.calls[0].at_ticks == v.num("ticks"));
       CHECK(g_hal.calls[0].period_q8 == v.num("period_q8"));
     } else if (v.kind == "heartbeat" || v.kind == "watchdog") {
