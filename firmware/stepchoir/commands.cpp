@@ -49,6 +49,10 @@ uint8_t Commands::handle_periods(const uint8_t *p, uint8_t len) {
     const uint8_t rc = check_entry(e);
     if (rc != kErrNone) return rc;
   }
+  if (len == kSetPeriodBytes) {  // one note, the live case: decoded already (63 cycles sooner)
+    hal::set_period(e.motor, e.period_q8);
+    return kErrNone;
+  }
   for (uint8_t i = 0; i < len; i = (uint8_t)(i + kSetPeriodBytes)) {
     get_entry(p + i, &e);
     hal::set_period(e.motor, e.period_q8);

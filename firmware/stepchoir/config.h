@@ -35,6 +35,10 @@ static const uint16_t kTakeTicks = 48000;
 // step ISR is (taking it costs about 400 cycles; the edge waits that long at most).
 static const uint16_t kTakeUrgentTicks = 8000;
 
+// While a frame is coming in, the main loop waits this long (ticks) for its next byte before
+// it goes round its loop: three byte times at 1,000,000 baud.
+static const uint16_t kByteWaitTicks = 480;
+
 // UART receive ring (bytes, power of two). At 1,000,000 baud a byte arrives every 10 us; the
 // main loop drains the ring between its other work. 128 bytes = 1.28 ms of line time.
 static const uint8_t kRxRingBytes = 128;

@@ -20,9 +20,18 @@
 #define SC_ISR_SAVE "push r24\n\tin r24, __SREG__\n\tpush r24\n\tpush r25\n\tpush r30\n\tpush r31\n\t"
 #define SC_ISR_RESTORE "pop r31\n\tpop r30\n\tpop r25\n\tpop r24\n\tout __SREG__, r24\n\tpop r24\n\treti\n\t"
 
-namespace {
+using link::detail::g_rx;
+using link::detail::g_rx_head;
+using link::detail::g_rx_tail;
+
+namespace link {
+namespace detail {
 volatile uint8_t g_rx[cfg::kRxRingBytes];
 volatile uint8_t g_rx_head, g_rx_tail;
+}  // namespace detail
+}  // namespace link
+
+namespace {
 volatile uint8_t g_tx[cfg::kTxRingBytes];
 volatile uint8_t g_tx_head, g_tx_tail;
 volatile uint8_t g_rx_errors;  // bytes lost: hardware overrun, framing error or full ring (saturates)
@@ -106,17 +115,6 @@ void begin() {
 }
 
 uint8_t rx_head() { return g_rx_head; }
-
-uint8_t read_some(uint8_t *out, uint8_t max) {
-  const uint8_t head = g_rx_head;  // the receive ISR only moves head
-  uint8_t tail = g_rx_tail, n = 0;
-  while (tail != head && n < max) {
-    out[n++] = g_rx[tail];
-    tail = (uint8_t)((tail + 1) & kRxMask);
-  }
-  g_rx_tail = tail;
-  return n;
-}
 
 }  // namespace link
 

@@ -5,13 +5,38 @@
 
 #include <stdint.h>
 
+#include "config.h"
+
 namespace link {
+
+namespace detail {
+// The receive ring (link.cpp): the receive ISR moves only the head, the main loop the tail.
+extern volatile uint8_t g_rx[cfg::kRxRingBytes];
+extern volatile uint8_t g_rx_head, g_rx_tail;
+}  // namespace detail
 
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
 
-// Called from: main loop. Takes up to max received bytes into out; returns how many.
-uint8_t read_some(uint8_t *out, uint8_t max);
+
+// Passes of wait_byte's loop (7 cycles each, longer when ISRs nest) that make about `ticks`.
+constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 7u); }
+
+// Called from: main loop, while a frame is coming in. Takes the next received byte into out,
+// waiting for it at most max_passes passes of its loop (wait_passes); false when none came.
+// Inlined: the main loop takes a frame's bytes one by one as they come, in the 107 of every
+// 160 cycles the receive ISR leaves it (called, this took 40 cycles a byte and the loop fell
+// behind the line). The wait is counted in passes, not read from Timer1: a 16-bit timer read
+// with interrupts on could take a nested ISR's high byte.
+__attribute__((always_inline)) inline bool wait_byte(uint8_t *out, uint16_t max_passes) {
+  const uint8_t tail = detail::g_rx_tail;
+  for (uint16_t passes = max_passes; detail::g_rx_head == tail;) {
+    if (passes-- == 0) return false;
+  }
+  *out = detail::g_rx[tail];
+  detail::g_rx_tail = (uint8_t)((tail + 1) & (cfg::kRxRingBytes - 1));
+  return true;
+}
 
 // Called from: step ISR. The receive ring's head index: bytes the receive ISR took since an
 // earlier call are (now - then) mod cfg::kRxRingBytes (fewer than a ring's worth between calls).

@@ -92,8 +92,9 @@ inline uint16_t own_ticks(uint16_t in_isr, uint8_t rx_entered) {
   const uint16_t rx = (uint16_t)((uint8_t)(link::rx_head() - rx_entered) & (cfg::kRxRingBytes - 1)) * kRxIsrTicks;
   return in_isr > rx ? (uint16_t)(in_isr - rx) : 0;
 }
-// Between two ISR invocations g_played and (unless the main loop just posted)
-// g_cmd_mask are empty: the ISR returns only when it has nothing left to do.
+// Between two ISR invocations g_played and g_cmd_mask are empty unless the main loop just
+// started a motor itself (start_now) or posted a command: the ISR returns only when it has
+// nothing left to do, and the main loop wakes it for those within kPostLeadTicks.
 
 const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
 const uint8_t kPairTicks = 11;  // burst(): from a pair's first raise to its second on another port (measured in simavr)
@@ -339,10 +340,10 @@ __attribute__((always_inline)) inline void bookkeep_one() {
   if (m->period_q8 != 0) order_insert(m);  // 0: a timed silence fell before its next edge
 }
 
-// Called from: step ISR (interrupts on). Starts a silent motor: direction with more room
-// ahead (the music2gcode border rule, never into a pressed switch), first edge at `first`, or
-// as soon as it can be played if that has passed.
-void start(Motor &m, uint32_t period_q8, uint32_t first) {
+// Called from: step ISR (interrupts on) and main loop (start_now). Which way a silent motor
+// starts: the direction with more room ahead (the music2gcode border rule), never into a
+// pressed switch.
+inline bool start_up(const Motor &m) {
   bool up = m.flags & kUp;
   if (m.flags & kLimits) up = m.position < (int32_t)(m.travel_steps / 2);
   volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
@@ -350,6 +351,14 @@ void start(Motor &m, uint32_t period_q8, uint32_t first) {
   // A pressed switch ahead turns it round, unless it is one input for both ends (then it says
   // nothing about which end the carriage is at: the position decides).
   if (sw && m.sw_up_pin != m.sw_down_pin && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
+  return up;
+}
+
+// Called from: step ISR (interrupts on) and main loop (start_now, interrupts off). Sets DIR
+// (main loop suspended or interrupts off: nobody else writes the port meanwhile); true when
+// it changed.
+inline bool set_dir(Motor &m, bool up) {
+  if (up == (bool)(m.flags & kUp) && ((*m.dir_port & m.dir_mask) != 0) == up) return false;
   if (up) {
     m.flags |= kUp;
     *m.dir_port |= m.dir_mask;
@@ -357,8 +366,12 @@ void start(Motor &m, uint32_t period_q8, uint32_t first) {
     m.flags &= (uint8_t)~kUp;
     *m.dir_port &= (uint8_t)~m.dir_mask;
   }
-  const uint32_t soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
-  m.deadline = (int32_t)(first - soonest) < 0 ? soonest : first;
+  return true;
+}
+
+// Called from: step ISR and main loop (interrupts off there). A silent motor's period from its
+// first edge on: the onset ramp's start period when it is longer.
+inline void start_period(Motor &m, uint32_t period_q8) {
   m.deadline_frac = 0;
   m.flags &= (uint8_t)~(kRamp | kRestrike);
   if (m.start_q8 > period_q8) {
@@ -368,6 +381,15 @@ void start(Motor &m, uint32_t period_q8, uint32_t first) {
   } else {
     m.period_q8 = period_q8;
   }
+}
+
+// Called from: step ISR (interrupts on). Starts a silent motor (direction: start_up), first
+// edge at `first`, or as soon as it can be played if that has passed.
+void start(Motor &m, uint32_t period_q8, uint32_t first) {
+  set_dir(m, start_up(m));
+  const uint32_t soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
+  m.deadline = (int32_t)(first - soonest) < 0 ? soonest : first;
+  start_period(m, period_q8);
   order_insert(&m);
 }
 
@@ -503,6 +525,61 @@ void post(uint8_t mi, uint32_t period_q8) {
   }
 }
 
+// An edge of another motor due sooner than this (ticks) keeps the main loop from starting a
+// motor itself (start_now): its critical section (at most about 230 cycles, with a 10 us
+// pulse) would hold up the step ISR, whose compare fires kEarlyTicks before that edge.
+const uint16_t kDirectClearTicks = cfg::kEarlyTicks + 600;
+
+// Called from: main loop, interrupts off. True when no edge is due within kDirectClearTicks:
+// neither the order's head nor a motor waiting for the step ISR's bookkeeping.
+bool clear_ahead(uint32_t now) {
+  if (g_active && (int32_t)(g_order[0]->deadline - now) < (int32_t)kDirectClearTicks) return false;
+  for (uint8_t i = 0; i < g_played_count; ++i)
+    if ((int32_t)(g_played[i]->next_rough - now) < (int32_t)kDirectClearTicks) return false;
+  return true;
+}
+
+// Called from: main loop (hal::set_period). Starts silent motor mi at once: the main loop sets
+// DIR (start_up), raises the first edge itself and leaves the motor to the step ISR as played,
+// whose bookkeeping schedules the next edge one period on. A note's onset then does not wait
+// for the step ISR to come for a posted command (kPostLeadTicks), its loop and
+// kStartLeadTicks: about 1,000 cycles (`test_e2e "link: a note starts*"`). Returns false when
+// the motor sounds (or a timed entry started it meanwhile) or an edge is due within
+// kDirectClearTicks: the caller posts the command instead (DIR may have been turned already,
+// as the step ISR's start() would). When DIR turns, the first edge follows a pulse width later
+// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited with
+// interrupts on. Interrupts off: about 70 cycles + the STEP pulse (at most 14 us in all).
+static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: a pulse is timed on TCNT1L");
+bool start_now(uint8_t mi, uint32_t period_q8) {
+  Motor &m = g_motor[mi];
+  bool turned;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    if (m.period_q8 != 0 || !clear_ahead(now_locked())) return false;
+    turned = set_dir(m, start_up(m));
+  }
+  if (turned) {  // the low byte alone: a 16-bit read here could take a nested ISR's high byte
+    const uint8_t t = TCNT1L;  // (the timer's shared TEMP register); pulse_ticks <= 160
+    while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+    }
+  }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    const uint32_t now = now_locked();
+    if (m.period_q8 != 0 || !clear_ahead(now)) return false;
+    *m.step_port |= m.step_mask;
+    const uint16_t raised = TCNT1;
+    m.deadline = now + (uint16_t)(raised - (uint16_t)now);
+    start_period(m, period_q8);
+    m.next_rough = m.deadline + (m.period_q8 >> 8);
+    g_played[g_played_count++] = &m;  // silent, it was in neither list
+    g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
+    wake_soon();
+    while ((uint16_t)(TCNT1 - raised) < m.pulse_ticks) {
+    }
+    *m.step_port &= (uint8_t)~m.step_mask;
+  }
+  return true;
+}
+
 }  // namespace
 
 void init(uint8_t motor_count, const Wiring *wiring) {
@@ -589,6 +666,7 @@ void rescue_missed_compare() {
 void silence_all() {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_active = 0;
+    g_played_count = 0;  // between ISR invocations: only motors start_now just started
     g_cmd_mask = 0;
     for (uint8_t i = 0; i < g_count; ++i) {
       g_motor[i].period_q8 = 0;
@@ -617,6 +695,16 @@ void silence_all() {
 // of them spent waiting for the edge with interrupts on.
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
+  // Idle (no motor sounds, nothing posted or queued): only the 16-bit timer's extension, every
+  // kWakeTicks. Kept short (the loop below took about 400 cycles for it): a note's frame that
+  // came meanwhile waited that long (`test_e2e "link: a note starts*"`: p99 with 500 notes).
+  if (!g_active && !g_played_count && !g_cmd_mask && g_q_put == g_q_taken) {
+    const uint32_t now = now_locked();
+    g_armed = now + cfg::kWakeTicks;
+    OCR1A = (uint16_t)g_armed;
+    g_isr_busy += kIsrEntryExitTicks;
+    return;
+  }
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
   sei();
   const uint16_t entered = TCNT1;
@@ -698,7 +786,10 @@ uint32_t now_ticks() {
 }
 
 void set_period(uint8_t m, uint32_t period_q8) {
-  if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
+  // A silent motor whose driver is awake starts at once (sched::start_now); a driver just
+  // woken gets the step ISR's start lead (kStartLeadTicks, 18.75 us: a TB6600 wants ENA 5 us
+  // before DIR).
+  if (period_q8 != sc::kPeriodSilent && !drivers::enable_for(m) && sched::start_now(m, period_q8)) return;
   sched::post(m, period_q8);
 }
 

@@ -21,7 +21,9 @@
 // bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox,
 // a timestamped entry from the queue (hal::queue_at), taken 3 ms before its time so that it
 // starts or strikes its motor on the tick whatever the main loop is doing.
-// The main loop never touches the order itself: its critical sections stay short. When the
+// The main loop never touches the order itself: its critical sections stay short. It starts
+// a silent motor itself when no edge is near (its first edge raised at once, the motor left to
+// the ISR's bookkeeping), so that a live note's onset is not held up by the ISR's hand-over. When the
 // ISR has kept it from beginning a pass for 8 ms, taking 3/4 of the CPU, the ISR leaves it
 // slices (cfg::kMaxIsrTicks, kMainSliceTicks) and its edges fall late instead.
 // Measured on the virtual board: bench/results/pitch-<board>.md.

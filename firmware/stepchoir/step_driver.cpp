@@ -114,14 +114,16 @@ void begin() {
   sched::init(board::active::kMotorCount, w);
 }
 
-// Called from: main loop, before a motor starts. Wakes its driver (shared enables included).
-void enable_for(uint8_t m) {
-  if (g_drivers[m].enabled()) return;
+// Called from: main loop, before a motor starts. Wakes its driver (shared enables included);
+// true when it was asleep.
+bool enable_for(uint8_t m) {
+  if (g_drivers[m].enabled()) return false;
   if (board::active::kSharedEnable) {
     for (uint8_t i = 0; i < board::active::kMotorCount; ++i) g_drivers[i].enable(true);
   } else {
     g_drivers[m].enable(true);
   }
+  return true;
 }
 
 }  // namespace drivers

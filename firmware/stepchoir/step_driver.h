@@ -47,6 +47,7 @@ class StepDriver {
 namespace drivers {
 // Called from: setup(). Sets up every socket of the board and the step scheduler.
 void begin();
-// Called from: main loop. Enables motor m's driver (and those sharing its ENABLE pin).
-void enable_for(uint8_t m);
+// Called from: main loop. Enables motor m's driver (and those sharing its ENABLE pin); true
+// when it was disabled.
+bool enable_for(uint8_t m);
 }  // namespace drivers

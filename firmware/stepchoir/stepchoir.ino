@@ -7,6 +7,19 @@
 
 static cmd::Commands g_commands;
 
+// Called from: loop(). Decodes the bytes received so far, and the rest of a frame once one has
+// begun, each byte as it arrives (the wait for one: at most cfg::kByteWaitTicks). Returns how
+// many it took: from 64 on it stops between frames, and at 128 in any case (a stream of bytes
+// with no delimiter is one endless frame; the watchdog must still run).
+static inline uint8_t take_bytes() {
+  uint8_t n = 0, b;
+  while (link::wait_byte(&b, g_commands.in_frame() ? link::wait_passes(cfg::kByteWaitTicks) : 0)) {
+    g_commands.on_byte(b);
+    if (++n >= 64 && (!g_commands.in_frame() || n == 128)) break;
+  }
+  return n;
+}
+
 void setup() {
   TIMSK0 = 0;  // no millis() tick: its ISR would delay step edges; board time is Timer1's
   drivers::begin();
@@ -14,17 +27,19 @@ void setup() {
   g_commands.init();
 }
 
-// Main loop: drain the UART into the frame decoder, start due timestamped notes, watchdog.
-// The UART is drained again between the other pieces, and while a frame is coming in the
-// other pieces wait (cfg::kDeferPasses, cfg::kDeferBytes), so a frame's last byte is handled
-// at once rather than after the rest of a pass.
+// Main loop: take received bytes into the frame decoder, watchdog and late replies (poll),
+// a missed compare. Bytes are taken one by one, and once a frame has begun the loop waits for
+// each of its bytes as it arrives (a byte every 160 cycles; the receive ISR takes 50 of them,
+// decoding one about 85), so a frame's delimiter is handled right after its receive ISR:
+// taken in batches between passes, a frame's last four bytes and a pass came first, about 600
+// cycles (the virtual board's PC trace). The other pieces run between frames, or when a frame
+// stalls (a byte later than cfg::kByteWaitTicks) for at most cfg::kDeferPasses passes and
+// cfg::kDeferBytes bytes in a row.
 void loop() {
   sched::main_loop_alive();
   static uint8_t deferred_passes = 0, deferred_bytes = 0;
-  uint8_t bytes[32];
-  const uint8_t n = link::read_some(bytes, sizeof bytes);
-  g_commands.on_bytes(bytes, n);
-  deferred_bytes = (uint8_t)(deferred_bytes + n);  // n <= 32: no wrap below kDeferBytes + 32
+  const uint8_t n = take_bytes();
+  deferred_bytes = (uint8_t)(deferred_bytes + n > 255 ? 255 : deferred_bytes + n);
   if (g_commands.in_frame() && deferred_passes < cfg::kDeferPasses && deferred_bytes < cfg::kDeferBytes) {
     ++deferred_passes;
     return;
@@ -32,6 +47,6 @@ void loop() {
   deferred_passes = 0;
   deferred_bytes = 0;
   g_commands.poll();
-  g_commands.on_bytes(bytes, link::read_some(bytes, sizeof bytes));
+  take_bytes();
   sched::rescue_missed_compare();
 }
