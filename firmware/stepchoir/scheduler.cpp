@@ -547,35 +547,61 @@ bool clear_ahead(uint32_t now) {
 // the motor sounds (or a timed entry started it meanwhile) or an edge is due within
 // kDirectClearTicks: the caller posts the command instead (DIR may have been turned already,
 // as the step ISR's start() would). When DIR turns, the first edge follows a pulse width later
-// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited with
-// interrupts on. Interrupts off: about 70 cycles + the STEP pulse (at most 14 us in all).
-static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: a pulse is timed on TCNT1L");
+// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited
+// with interrupts off up to kDirWaitOffTicks. Interrupts off: about 110 cycles + the DIR wait
+// (at most kDirWaitOffTicks) + the STEP pulse, the hand-over done during it: 12 us at most
+// (with a 10 us pulse).
+// Called from: start_now, interrupts off, motor m silent and no edge near. Raises m's first
+// edge now, hands m to the step ISR as played (its bookkeeping schedules the next edge one
+// period on) and lowers STEP when the pulse is over (the hand-over is done meanwhile).
+__attribute__((always_inline)) inline void raise_first(Motor &m, uint8_t mi, uint32_t now, uint32_t period_q8) {
+  *m.step_port |= m.step_mask;
+  const uint16_t raised = TCNT1;
+  m.deadline = now + (uint16_t)(raised - (uint16_t)now);
+  start_period(m, period_q8);
+  m.next_rough = m.deadline + (m.period_q8 >> 8);
+  g_played[g_played_count++] = &m;  // silent, it was in neither list
+  g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
+  wake_soon();
+  while ((uint16_t)(TCNT1 - raised) < m.pulse_ticks) {
+  }
+  *m.step_port &= (uint8_t)~m.step_mask;
+}
+
+// A DIR set-up wait (the pulse width) up to this long (ticks) is kept inside start_now's one
+// critical section; a longer one (TB6600: 5 us) is waited with interrupts on, then the state
+// is checked again.
+const uint8_t kDirWaitOffTicks = 48;
+
+static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: DIR set-up is timed on TCNT1L");
 bool start_now(uint8_t mi, uint32_t period_q8) {
   Motor &m = g_motor[mi];
-  bool turned;
+  const bool up = start_up(m);  // a torn read only if the motor sounds: checked below
+  bool done = false;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    if (m.period_q8 != 0 || !clear_ahead(now_locked())) return false;
-    turned = set_dir(m, start_up(m));
-  }
-  if (turned) {  // the low byte alone: a 16-bit read here could take a nested ISR's high byte
-    const uint8_t t = TCNT1L;  // (the timer's shared TEMP register); pulse_ticks <= 160
-    while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+    const uint32_t now = now_locked();
+    if (m.period_q8 != 0 || !clear_ahead(now)) return false;
+    const bool turned = set_dir(m, up);
+    if (!turned || m.pulse_ticks <= kDirWaitOffTicks) {
+      if (turned) {
+        const uint8_t t = TCNT1L;
+        while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+        }
+      }
+      raise_first(m, mi, now, period_q8);
+      done = true;
     }
+  }
+  if (done) return true;
+  // The low byte alone: a 16-bit read with interrupts on could take a nested ISR's high byte
+  // (the timer's shared TEMP register); pulse_ticks <= 160.
+  const uint8_t t = TCNT1L;
+  while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
   }
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     const uint32_t now = now_locked();
     if (m.period_q8 != 0 || !clear_ahead(now)) return false;
-    *m.step_port |= m.step_mask;
-    const uint16_t raised = TCNT1;
-    m.deadline = now + (uint16_t)(raised - (uint16_t)now);
-    start_period(m, period_q8);
-    m.next_rough = m.deadline + (m.period_q8 >> 8);
-    g_played[g_played_count++] = &m;  // silent, it was in neither list
-    g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
-    wake_soon();
-    while ((uint16_t)(TCNT1 - raised) < m.pulse_ticks) {
-    }
-    *m.step_port &= (uint8_t)~m.step_mask;
+    raise_first(m, mi, now, period_q8);
   }
   return true;
 }
