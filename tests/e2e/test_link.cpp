@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -116,14 +117,19 @@ namespace {
 // Firmware latency: from the last byte of a set-period frame reaching the board's UART to the
 // motor's first STEP edge, over `notes` notes on a silent motor (cycles of the virtual board's
 // trace, exact). Returns the latencies in CPU cycles.
-std::vector<double> onset_latencies(const std::string &board, int notes) {
+// Times `notes` onsets on motor 0 (its STEP pulse and DIR set-up pulse_us), and checks every
+// step's DIR set-up from the trace.
+std::vector<double> onset_latencies(const std::string &board, int notes, uint8_t pulse_us = 2) {
   const std::string trace_path = e2e::scratch("link-onset-" + board + ".csv");
   e2e::StoppableVboard vb({"--board", board, "--no-pacing", "--seconds", "120", "--trace", trace_path,
                            "--trace-frames", "--quiet"});
   Board b(open_link(vb.pty()));
   const Caps caps = b.hello();
   b.send(e2e::watchdog_payload(0));
-  b.send(config_payload(e2e::motor_config(0, 100000)));
+  sc::ConfigBody config = e2e::motor_config(0, 100000);
+  config.pulse_us = pulse_us;
+  if (pulse_us >= 5) config.driver = sc::kDriverTb6600;
+  b.send(config_payload(config));
   // Notes are timed on a board that has done with the frames before them: sent right behind
   // the configuration frame, the first note's frame waited about 290 us for its handling (the
   // one p99 outlier of 100 notes before this wait).
@@ -158,6 +164,28 @@ std::vector<double> onset_latencies(const std::string &board, int notes) {
     REQUIRE(t.frame_ends[s] < steps[i].rise_cycle);
     out.push_back(double(steps[i].rise_cycle - t.frame_ends[s]));
   }
+  // DIR set-up: every step comes at least a pulse width (the configured pulse) after the
+  // motor's last DIR change, also the first step of a note that turned it (raised by the main
+  // loop at once, sched::start_now). The border rule turns this carriage, near mid travel, at
+  // most notes: the check sees those.
+  const double setup_cycles = pulse_us * 1e-6 * caps.f_cpu_hz;
+  size_t turned_onsets = 0;
+  double least_setup = 1e18;
+  for (const auto &st : steps) {
+    const auto &dirs = t.motor[0].dir_changes;
+    auto after = std::upper_bound(dirs.begin(), dirs.end(), st.rise_cycle,
+                                  [](uint64_t c, const tr::LevelChange &d) { return c < d.cycle; });
+    if (after == dirs.begin()) continue;
+    const double setup = double(st.rise_cycle - std::prev(after)->cycle);
+    if (setup < 0.001 * caps.f_cpu_hz) ++turned_onsets;  // DIR turned within 1 ms before it
+    least_setup = std::min(least_setup, setup);
+    INFO("step at cycle " << st.rise_cycle << ": DIR changed " << setup << " cycles before");
+    REQUIRE(setup >= setup_cycles);
+    REQUIRE(st.width_cycles >= setup_cycles);  // the STEP pulse too
+  }
+  std::printf("onset %s: %zu steps came within 1 ms of a DIR change, the soonest %.2f us after it\n", board.c_str(),
+              turned_onsets, least_setup * 1e6 / caps.f_cpu_hz);
+  CHECK(turned_onsets >= static_cast<size_t>(notes / 10));
   return out;
 }
 
@@ -193,4 +221,16 @@ TEST_CASE("link: a note starts within 0.3 ms of its frame's last byte (uno and m
     CHECK(lat.back() * us < 300.0);
     CHECK(first < 300.0);
   }
+}
+
+// A TB6600 wants 5 us between a DIR change and the next STEP edge: a note that turns the motor
+// waits for it before its first edge (with interrupts on: longer than start_now keeps them
+// off), and its STEP pulses last 5 us. (The path from DIR to the raise alone takes about 3 us
+// with a 2 us pulse and 6 us with this one: the check holds the property, not the wait.)
+TEST_CASE("link: a TB6600's note that turns its motor steps 5 us after DIR (uno)") {
+  std::vector<double> lat = onset_latencies("uno", 30, 5);
+  REQUIRE(lat.size() == 30u);
+  std::sort(lat.begin(), lat.end());
+  std::printf("onset uno, TB6600 (5 us): p50 %.1f us, max %.1f us\n", lat[lat.size() / 2] / 16.0, lat.back() / 16.0);
+  CHECK(lat.back() / 16.0 < 300.0);
 }
