@@ -75,11 +75,9 @@ static const uint8_t kMaxOffTicks = 88;
 static const uint8_t kMergeTicks = 64;
 
 // The compare unit fires this long before a deadline: time for the ISR's prologue (run with
-// interrupts on), a nested UART ISR and the burst's plan (sched::burst), before kCliLeadTicks.
-// 46.9 us: 450 made edges late under UART traffic (one bench run each: worst-note p99 7.7 us
-// instead of 5.3 on the Uno), and once the burst planned its writes before the first wait 600
-// made lone edges late (worst-note p99 4.9 us instead of 2.3-5.1, most notes under 2 us).
-static const uint16_t kEarlyTicks = 750;
+// interrupts on) and a nested UART ISR, before kCliLeadTicks. 37.5 us: 450 made edges late
+// under UART traffic (one bench run each: worst-note p99 7.7 us instead of 5.3 on the Uno).
+static const uint16_t kEarlyTicks = 600;
 
 // An edge due within this long is waited for rather than starting a command from the main loop:
 // the longest (~350 cycles) stretched by the UART's ISR nesting at full speed, plus

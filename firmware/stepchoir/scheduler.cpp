@@ -142,32 +142,18 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // for it in time), lowering each STEP once its pulse has passed. Played motors move from
 // g_order to g_played.
 //
-// How many motors the burst plays is counted first (a few 32-bit compares), then the writes
-// are planned (RaiseWrite): each motor's port, mask and tick loaded before the first wait, so
-// that the loop goes from one write to the next in 70-90 cycles (working each motor out
-// between two raises took 90-130: in the pitch benchmark three in four of the edges more than
-// 2 us late came right after another motor's raise). An edge due less than kMergeTicks after
-// the previous one is raised with it as a pair: the first one half the gap (less kPairTicks)
-// late and the second right after it (in the same write when they share a port). Planning
-// before the first wait makes the ISR's way from its compare to the first raise longer:
-// kEarlyTicks 750 (600 made lone edges late). Measured with `tools/bench/run-bench.sh`, light
-// traffic: notes with an edge jitter p99 over 2 us 24 -> 4-6 of 88 (Uno), 44 -> 5-6 of 85 (Mega).
+// How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
+// port and mask are loaded before its wait. An edge due less than kMergeTicks after the
+// previous one is raised with it as a pair, its port and mask loaded before the wait too: the
+// first one is raised half the gap (less kPairTicks) late and the second right after it (in
+// the same write when they share a port). Before pairs, a merged edge followed its partner
+// after a whole pass of the loop (60-90 cycles, not the 14 assumed), 4-5 us late. A pass of
+// the loop between two separate raises still takes 90-130 cycles (measured with
+// STEPCHOIR_VBOARD_PCTRACE): an edge due that soon after the previous raise comes late.
 // Interrupts are off from kCliLeadTicks before a raise until it is done, and stay off into the
 // next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
 // off longer than kMaxOffTicks: then a waiting UART byte is let in first.
-// Cycles with interrupts off: at most kMaxOffTicks + one raise and its merged followers (~70);
-// measured 236 (Uno) / 242 (Mega) at most, also with frames at full line speed (280-301
-// before the plan).
-// One STEP write of a burst: the edges it raises (one motor, or two due less than kMergeTicks
-// apart: one write on a shared port, two back to back on two ports) and when.
-struct RaiseWrite {
-  uint16_t at;
-  volatile uint8_t *port;
-  uint8_t mask;
-  uint8_t mask2;  // nonzero: the pair's second edge, on port2
-  volatile uint8_t *port2;
-};
-
+// Cycles with interrupts off: at most kMaxOffTicks + one raise and its merged followers (~70).
 __attribute__((always_inline)) inline void burst() {
   const uint8_t active = g_active;
   uint8_t n = 1;
@@ -176,84 +162,85 @@ __attribute__((always_inline)) inline void burst() {
     if (d - last > cfg::kComebackTicks) break;  // the order is sorted: d - last >= 0
     last = d;
   }
-  // The plan, worked out before the first wait, so that the loop below goes from one write to
-  // the next in about 40 cycles (working each motor out in between took 90-130: an edge due
-  // that soon after the previous raise came late, three in four of the edges late by more
-  // than 2 us in the pitch benchmark).
-  RaiseWrite plan[board::active::kMotorCount];
-  uint8_t write_of[board::active::kMotorCount];  // motor i of the burst is raised by write_of[i]
-  uint8_t writes = 0;
-  for (uint8_t i = 0; i < n; ++writes) {
-    const Motor *m = g_order[i];
-    RaiseWrite &w = plan[writes];
-    w.at = (uint16_t)m->deadline;
-    w.port = m->step_port;
-    w.mask = m->step_mask;
-    w.mask2 = 0;
-    w.port2 = w.port;
-    write_of[i++] = writes;
-    if (i < n) {
-      const Motor *next = g_order[i];
-      const uint16_t gap = (uint16_t)((uint16_t)next->deadline - w.at);
-      if (gap < cfg::kMergeTicks) {  // a pair: this one a little late, that one right after it
-        const uint8_t pair_ticks = next->step_port == w.port ? 0 : kPairTicks;
-        if (next->step_port == w.port) {
-          w.mask = (uint8_t)(w.mask | next->step_mask);
-        } else {
-          w.port2 = next->step_port;
-          w.mask2 = next->step_mask;
-        }
-        if (gap > pair_ticks) w.at = (uint16_t)(w.at + ((gap - pair_ticks) >> 1));
-        write_of[i++] = writes;
-      }
-    }
-  }
-  uint16_t raised[board::active::kMotorCount];  // per write
-  uint8_t low = 0;                               // motors lowered so far
-  uint16_t off_since = 0;
+  uint16_t raised[board::active::kMotorCount];
+  uint8_t low = 0;
+  uint16_t off_since = 0, prev = 0;
   bool off = false;
-  const RaiseWrite *w = plan;
-  for (uint8_t k = 0; k < writes; ++k, ++w) {
-    const uint16_t at = w->at;
-    if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-      sei();
-      while ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-        if (low < n && write_of[low] < k && (uint16_t)(TCNT1 - raised[write_of[low]]) >= g_order[low]->pulse_ticks) {
-          *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop
-          ++low;                                                            // and nested ISRs keep off
+  for (uint8_t i = 0; i < n; ++i) {
+    Motor *m = g_order[i];
+    const uint16_t t = (uint16_t)m->deadline;
+    volatile uint8_t *const port = m->step_port;
+    uint8_t mask = m->step_mask;
+    // A pair: the next edge due less than kMergeTicks after this one is raised together with
+    // it, its port and mask loaded before the wait (one write when they share a port).
+    volatile uint8_t *port2 = port;
+    uint8_t mask2 = 0;  // nonzero: a pair on two ports
+    bool pair = false;
+    if (i == 0 || (uint16_t)(t - prev) >= cfg::kMergeTicks) {
+      prev = t;
+      uint16_t at = t;
+      if (i + 1 < n) {
+        const Motor *next = g_order[i + 1];
+        const uint16_t gap = (uint16_t)((uint16_t)next->deadline - t);
+        if (gap < cfg::kMergeTicks) {
+          // raise this one a little late and that one right after it, splitting the error
+          pair = true;
+          port2 = next->step_port;
+          mask2 = next->step_mask;
+          const uint8_t pair_ticks = port2 == port ? 0 : kPairTicks;
+          if (port2 == port) {
+            mask = (uint8_t)(mask | mask2);
+            mask2 = 0;
+          }
+          if (gap > pair_ticks) at = (uint16_t)(t + ((gap - pair_ticks) >> 1));
         }
       }
-      cli();
-      off = true;
-      off_since = TCNT1;
-    } else if (!off) {
-      cli();
-      off = true;
-      off_since = TCNT1;
-    } else if ((uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
-      sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
-      __asm__ __volatile__("nop");
+      if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+        sei();
+        off = false;
+        while ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+          if (low < i && (uint16_t)(TCNT1 - raised[low]) >= g_order[low]->pulse_ticks) {
+            *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop
+            ++low;                                                            // and nested ISRs keep off
+          }
+        }
+      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
+        sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
+        __asm__ __volatile__("nop");
+        off = false;
+      }
+      if (!off) {
+        cli();
+        off = true;
+        off_since = TCNT1;
+      }
+      while ((int16_t)(at - TCNT1) > 0) {
+      }
+    } else if ((uint16_t)(TCNT1 - off_since) > cfg::kMaxOffTicks) {  // a merged follower, late
+      sei();                                                           // in a long chain: a
+      __asm__ __volatile__("nop");                                     // waiting UART byte first
       cli();
       off_since = TCNT1;
     }
-    while ((int16_t)(at - TCNT1) > 0) {
+    *port |= mask;
+    if (mask2) *port2 |= mask2;  // the pair's second edge, on another port
+    raised[i] = TCNT1;
+    if (pair) {
+      raised[i + 1] = raised[i];
+      ++i;
     }
-    *w->port |= w->mask;
-    if (w->mask2) *w->port2 |= w->mask2;
-    raised[k] = TCNT1;
   }
   sei();
   for (; low < n; ++low) {
     Motor *p = g_order[low];
-    const uint16_t r = raised[write_of[low]];
-    while ((uint16_t)(TCNT1 - r) < p->pulse_ticks) {
+    while ((uint16_t)(TCNT1 - raised[low]) < p->pulse_ticks) {
     }
     *p->step_port &= (uint8_t)~p->step_mask;
   }
   for (uint8_t i = 0; i < n; ++i) {
-    Motor *p = g_order[i];
-    if ((int16_t)(raised[write_of[i]] - (uint16_t)p->deadline) > (int16_t)kLateTicks)
+    if ((int16_t)(raised[i] - (uint16_t)g_order[i]->deadline) > (int16_t)kLateTicks)
       g_late_edges = (uint16_t)(g_late_edges + 1);
+    Motor *p = g_order[i];
     p->next_rough = p->deadline + (p->period_q8 >> 8);
     g_played[g_played_count++] = p;
   }
@@ -564,19 +551,18 @@ bool clear_ahead(uint32_t now) {
 // with interrupts off up to kDirWaitOffTicks. Interrupts off: about 110 cycles + the DIR wait
 // (at most kDirWaitOffTicks) + the STEP pulse, the hand-over done during it: 12 us at most
 // (with a 10 us pulse).
-// Called from: start_now, interrupts off, motor m silent and no edge near. Hands m to the step
-// ISR as played (its bookkeeping schedules the next edge one period on), raises its first edge
-// now and lowers STEP when the pulse is over. The hand-over comes before the raise: done
-// during the pulse it made a 5 us pulse 7 us long (`e2e: live: a configuration file*`).
+// Called from: start_now, interrupts off, motor m silent and no edge near. Raises m's first
+// edge now, hands m to the step ISR as played (its bookkeeping schedules the next edge one
+// period on) and lowers STEP when the pulse is over (the hand-over is done meanwhile).
 __attribute__((always_inline)) inline void raise_first(Motor &m, uint8_t mi, uint32_t now, uint32_t period_q8) {
-  start_period(m, period_q8);
-  g_played[g_played_count++] = &m;  // silent, it was in neither list
-  g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
-  wake_soon();
   *m.step_port |= m.step_mask;
   const uint16_t raised = TCNT1;
   m.deadline = now + (uint16_t)(raised - (uint16_t)now);
+  start_period(m, period_q8);
   m.next_rough = m.deadline + (m.period_q8 >> 8);
+  g_played[g_played_count++] = &m;  // silent, it was in neither list
+  g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
+  wake_soon();
   while ((uint16_t)(TCNT1 - raised) < m.pulse_ticks) {
   }
   *m.step_port &= (uint8_t)~m.step_mask;

@@ -466,6 +466,6 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
   REQUIRE(width);
   CHECK(*width >= 5 * 16);      // 5 us at 16 MHz
   // not the default 2 us, nor much longer: the step ISR lowers STEP a loop pass after the
-  // pulse's end (measured 113 cycles for the 80 asked, 111 before the burst planned its writes)
+  // pulse's end (measured 111 cycles for the 80 asked)
   CHECK(*width < 5 * 16 + 48);
 }
