@@ -18,7 +18,6 @@ extern volatile uint8_t g_rx_head, g_rx_tail;
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
 
-
 // Passes of wait_byte's loop (7 cycles each, longer when ISRs nest) that make about `ticks`.
 constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 7u); }
 

@@ -526,8 +526,8 @@ void post(uint8_t mi, uint32_t period_q8) {
 }
 
 // An edge of another motor due sooner than this (ticks) keeps the main loop from starting a
-// motor itself (start_now): its critical section (at most about 230 cycles, with a 10 us
-// pulse) would hold up the step ISR, whose compare fires kEarlyTicks before that edge.
+// motor itself (start_now): its critical section (341-428 cycles measured, see start_now)
+// would hold up the step ISR, whose compare fires kEarlyTicks before that edge.
 const uint16_t kDirectClearTicks = cfg::kEarlyTicks + 600;
 
 // Called from: main loop, interrupts off. True when no edge is due within kDirectClearTicks:
@@ -539,18 +539,6 @@ bool clear_ahead(uint32_t now) {
   return true;
 }
 
-// Called from: main loop (hal::set_period). Starts silent motor mi at once: the main loop sets
-// DIR (start_up), raises the first edge itself and leaves the motor to the step ISR as played,
-// whose bookkeeping schedules the next edge one period on. A note's onset then does not wait
-// for the step ISR to come for a posted command (kPostLeadTicks), its loop and
-// kStartLeadTicks: about 1,000 cycles (`test_e2e "link: a note starts*"`). Returns false when
-// the motor sounds (or a timed entry started it meanwhile) or an edge is due within
-// kDirectClearTicks: the caller posts the command instead (DIR may have been turned already,
-// as the step ISR's start() would). When DIR turns, the first edge follows a pulse width later
-// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited
-// with interrupts off up to kDirWaitOffTicks. Interrupts off: about 110 cycles + the DIR wait
-// (at most kDirWaitOffTicks) + the STEP pulse, the hand-over done during it: 12 us at most
-// (with a 10 us pulse).
 // Called from: start_now, interrupts off, motor m silent and no edge near. Raises m's first
 // edge now, hands m to the step ISR as played (its bookkeeping schedules the next edge one
 // period on) and lowers STEP when the pulse is over (the hand-over is done meanwhile).
@@ -573,6 +561,19 @@ __attribute__((always_inline)) inline void raise_first(Motor &m, uint8_t mi, uin
 // is checked again.
 const uint8_t kDirWaitOffTicks = 48;
 
+// Called from: main loop (hal::set_period). Starts silent motor mi at once: the main loop sets
+// DIR (start_up), raises the first edge itself and leaves the motor to the step ISR as played,
+// whose bookkeeping schedules the next edge one period on. A note's onset then does not wait
+// for the step ISR to come for a posted command (kPostLeadTicks), its loop and
+// kStartLeadTicks: about 1,000 cycles (`test_e2e "link: a note starts*"`). Returns false when
+// the motor sounds (or a timed entry started it meanwhile) or an edge is due within
+// kDirectClearTicks: the caller posts the command instead (DIR may have been turned already,
+// as the step ISR's start() would). When DIR turns, the first edge follows a pulse width later
+// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited
+// with interrupts off up to kDirWaitOffTicks. Interrupts off: measured 341 cycles (Uno) / 428
+// (Mega), 21-27 us, with the default 2 us pulse (`irq_off_max_cycles` in
+// build/e2e/link-onset-<board>.csv): the checks, DIR, the raise and the hand-over's 32-bit
+// stores, which outlast the pulse. Over the ~15 us the UART's two bytes allow: not yet mended.
 static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: DIR set-up is timed on TCNT1L");
 bool start_now(uint8_t mi, uint32_t period_q8) {
   Motor &m = g_motor[mi];
