@@ -59,6 +59,7 @@ volatile uint8_t g_active;     // how many of g_order are valid
 Motor *g_played[board::active::kMotorCount];           // motors stepped by a burst, waiting for their next deadline
 uint8_t g_played_count;
 volatile uint8_t g_cmd_mask;   // bit m: motor m has a command in its mailbox
+uint8_t g_claimed;             // bit m: the main loop is starting motor m (start_now): hands off
 uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 32768 ticks)
 volatile uint16_t g_reversals;
 volatile uint16_t g_late_edges;
@@ -472,6 +473,7 @@ inline const AtSlot *entry_due(uint32_t now) {
   const int32_t ahead = (int32_t)(e.at - now);
   if (ahead > (int32_t)cfg::kTakeTicks) return 0;
   if ((g_motor[e.motor].flags & kRestrike) && ahead > (int32_t)cfg::kStartLeadTicks) return 0;
+  if (g_claimed & (1u << e.motor)) return 0;  // after start_now's hand-over (a strike, then)
   return &e;
 }
 
@@ -526,8 +528,8 @@ void post(uint8_t mi, uint32_t period_q8) {
 }
 
 // An edge of another motor due sooner than this (ticks) keeps the main loop from starting a
-// motor itself (start_now): its critical section (341-428 cycles measured, see start_now)
-// would hold up the step ISR, whose compare fires kEarlyTicks before that edge.
+// motor itself (start_now): its critical sections (the check and the raise) would hold up the
+// step ISR, whose compare fires kEarlyTicks before that edge.
 const uint16_t kDirectClearTicks = cfg::kEarlyTicks + 600;
 
 // Called from: main loop, interrupts off. True when no edge is due within kDirectClearTicks:
@@ -539,70 +541,64 @@ bool clear_ahead(uint32_t now) {
   return true;
 }
 
-// Called from: start_now, interrupts off, motor m silent and no edge near. Raises m's first
-// edge now, hands m to the step ISR as played (its bookkeeping schedules the next edge one
-// period on) and lowers STEP when the pulse is over (the hand-over is done meanwhile).
-__attribute__((always_inline)) inline void raise_first(Motor &m, uint8_t mi, uint32_t now, uint32_t period_q8) {
-  *m.step_port |= m.step_mask;
-  const uint16_t raised = TCNT1;
-  m.deadline = now + (uint16_t)(raised - (uint16_t)now);
-  start_period(m, period_q8);
-  m.next_rough = m.deadline + (m.period_q8 >> 8);
-  g_played[g_played_count++] = &m;  // silent, it was in neither list
-  g_cmd_mask &= (uint8_t)~(1u << mi);  // an older command for it is superseded
-  wake_soon();
-  while ((uint16_t)(TCNT1 - raised) < m.pulse_ticks) {
-  }
-  *m.step_port &= (uint8_t)~m.step_mask;
-}
-
-// A DIR set-up wait (the pulse width) up to this long (ticks) is kept inside start_now's one
-// critical section; a longer one (TB6600: 5 us) is waited with interrupts on, then the state
-// is checked again.
-const uint8_t kDirWaitOffTicks = 48;
-
 // Called from: main loop (hal::set_period). Starts silent motor mi at once: the main loop sets
 // DIR (start_up), raises the first edge itself and leaves the motor to the step ISR as played,
 // whose bookkeeping schedules the next edge one period on. A note's onset then does not wait
 // for the step ISR to come for a posted command (kPostLeadTicks), its loop and
 // kStartLeadTicks: about 1,000 cycles (`test_e2e "link: a note starts*"`). Returns false when
-// the motor sounds (or a timed entry started it meanwhile) or an edge is due within
-// kDirectClearTicks: the caller posts the command instead (DIR may have been turned already,
-// as the step ISR's start() would). When DIR turns, the first edge follows a pulse width later
-// (2-10 us: every supported driver's DIR set-up time, the TB6600's 5 us included), waited
-// with interrupts off up to kDirWaitOffTicks. Interrupts off: measured 341 cycles (Uno) / 428
-// (Mega), 21-27 us, with the default 2 us pulse (`irq_off_max_cycles` in
-// build/e2e/link-onset-<board>.csv): the checks, DIR, the raise and the hand-over's 32-bit
-// stores, which outlast the pulse. Over the ~15 us the UART's two bytes allow: not yet mended.
+// the motor sounds or an edge is due within kDirectClearTicks: the caller posts the command
+// instead. When DIR turns, the first edge follows a pulse width later (2-10 us: every
+// supported driver's DIR set-up time, the TB6600's 5 us included).
+// The motor is claimed (g_claimed) from the first check to the hand-over: the step ISR leaves
+// it alone (it is in neither list, its mailbox is emptied, its queue entries wait), so only the
+// check and DIR, the raise, the lowering and the hand-over's list entry need interrupts off;
+// the DIR wait, the pulse and the 32-bit stores run with them on (all in one critical
+// section, interrupts stayed off 341 cycles on the Uno, 428 on the Mega: over the ~15 us the
+// UART's two bytes allow). Measured: `irq_off_max_cycles` in build/e2e/link-onset-<board>.csv.
 static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: DIR set-up is timed on TCNT1L");
 bool start_now(uint8_t mi, uint32_t period_q8) {
   Motor &m = g_motor[mi];
+  const uint8_t bit = (uint8_t)(1u << mi);
   const bool up = start_up(m);  // a torn read only if the motor sounds: checked below
-  bool done = false;
+  bool turned;
+  uint16_t raised = 0;
+  uint32_t now = 0;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const uint32_t now = now_locked();
+    now = now_locked();
     if (m.period_q8 != 0 || !clear_ahead(now)) return false;
-    const bool turned = set_dir(m, up);
-    if (!turned || m.pulse_ticks <= kDirWaitOffTicks) {
-      if (turned) {
-        const uint8_t t = TCNT1L;
-        while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
-        }
-      }
-      raise_first(m, mi, now, period_q8);
-      done = true;
+    g_claimed |= bit;
+    g_cmd_mask &= (uint8_t)~bit;  // an older command for it is superseded
+    turned = set_dir(m, up);
+    if (!turned) {
+      *m.step_port |= m.step_mask;
+      raised = TCNT1;
     }
   }
-  if (done) return true;
-  // The low byte alone: a 16-bit read with interrupts on could take a nested ISR's high byte
-  // (the timer's shared TEMP register); pulse_ticks <= 160.
-  const uint8_t t = TCNT1L;
-  while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+  if (turned) {
+    // The low byte alone: a 16-bit read with interrupts on could take a nested ISR's high
+    // byte (the timer's shared TEMP register); pulse_ticks <= 160.
+    const uint8_t t = TCNT1L;
+    while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+    }
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      now = now_locked();
+      *m.step_port |= m.step_mask;
+      raised = TCNT1;
+    }
   }
+  // The pulse, with interrupts on (a nested ISR only makes it longer; the motor's next edge
+  // is scheduled only after the hand-over below).
+  const uint8_t r = (uint8_t)raised;
+  while ((uint8_t)(TCNT1L - r) < (uint8_t)m.pulse_ticks) {
+  }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { *m.step_port &= (uint8_t)~m.step_mask; }
+  m.deadline = now + (uint16_t)(raised - (uint16_t)now);
+  start_period(m, period_q8);
+  m.next_rough = m.deadline + (m.period_q8 >> 8);
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const uint32_t now = now_locked();
-    if (m.period_q8 != 0 || !clear_ahead(now)) return false;
-    raise_first(m, mi, now, period_q8);
+    g_played[g_played_count++] = &m;  // silent and claimed, it was in neither list
+    g_claimed &= (uint8_t)~bit;
+    wake_soon();
   }
   return true;
 }

@@ -197,7 +197,7 @@ std::vector<double> onset_latencies(const std::string &board, int notes, uint8_t
 // frame's bytes as they come), checks the entry and, the motor being silent and its driver
 // awake, raises the first edge itself (sched::start_now). The first note of a run wakes the
 // drivers and goes through the step ISR (its start lead); it is reported apart. Bounds are
-// regression guards, measured in simavr cycles: warm notes p99 72-74 us over 500 notes a board
+// regression guards, measured in simavr cycles: warm notes p99 74-78 us over 500 notes a board
 // (`STEPCHOIR_ONSET_NOTES=500`), at most 130 us for the first; a MIDI cable takes 960 us for
 // one note-on.
 TEST_CASE("link: a note starts within 0.3 ms of its frame's last byte (uno and mega)") {
