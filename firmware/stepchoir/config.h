@@ -58,31 +58,42 @@ static const uint16_t kRescheduleTicks = 400;
 
 // The step ISR turns interrupts off this long before an edge and busy-waits for it, so the
 // raise is on the exact tick whatever ran before. Longer than the longest other ISR (the
-// UART receive ISR: 67 cycles measured) plus a wait-loop pass.
-static const uint8_t kCliLeadTicks = 64;
+// UART receive ISR: 67 cycles measured) plus a pass of the wait loop that lowers pulses (about
+// 30): with 64, an edge whose wait a UART ISR entered late came up to 40 cycles late (traced).
+static const uint8_t kCliLeadTicks = 112;
 
-// Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, but a
-// wait that would keep them off longer than this (ticks) lets a waiting UART byte in first
-// (its ISR takes up to 54 cycles, so that edge may then be late). 88: with a pair's second
-// write in the window, interrupts stay off at most 263 cycles at full line speed (100 gave 308).
-static const uint8_t kMaxOffTicks = 88;
+// Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, from
+// the first to the last at most this long (ticks); a longer run lets waiting interrupts in
+// between two raises (its ISR takes up to 54 cycles, so that edge may then be late). With
+// kCliLeadTicks before the first: 88 kept them off 247 cycles on the Mega, 72 keeps the step
+// ISR's entry (236 / 242) the longest (tools/bench/run-bench.sh, also at full line speed).
+static const uint8_t kMaxOffTicks = 72;
 
-// An edge due less than this (ticks) after the previous one in a burst is raised with it as a
-// pair: its port and mask are loaded before the wait, the first edge is raised half the gap
-// (less the 11 cycles between the two writes) late and the second right after it, one write
-// when they share a port: both within 1.7 us of their ticks, where a pass of the raise loop
-// between them takes 90-130 cycles.
-static const uint8_t kMergeTicks = 64;
+// Planned spacing of two STEP writes in a burst (ticks): the raise loop's pass from one write to
+// the next (wait for the tick, write the port, note the time, load the next motor): 59 cycles
+// between two raises on both boards in the benchmark's traces. Edges due closer together share
+// the difference (see burst() in scheduler.cpp). Same-port edges are not merged into one write:
+// folding them in made that pass 94 cycles.
+static const uint8_t kWriteGapTicks = 59;
 
-// The compare unit fires this long before a deadline: time for the ISR's prologue (run with
-// interrupts on) and a nested UART ISR, before kCliLeadTicks. 37.5 us: 450 made edges late
-// under UART traffic (one bench run each: worst-note p99 7.7 us instead of 5.3 on the Uno).
-static const uint16_t kEarlyTicks = 600;
+// Two raises of a burst less than this far apart (ticks) but too far to keep interrupts off
+// between them stay in one run: after the first, waiting interrupts are let in (a UART ISR
+// takes up to ~60 cycles), then they are off again until the second. Going back to a wait with
+// interrupts on between them takes about 135 cycles (traced), so a second raise 112-150 ticks
+// after the first came late; the window with interrupts off after the breath stays under this.
+static const uint8_t kBreatherTicks = 200;
+
+// The compare unit fires this long before a deadline: time for the ISR's prologue, its loop and
+// the burst's plan, stretched by nested UART ISRs, before kCliLeadTicks. 62.5 us: with 600 and
+// 750 the planned burst came late while a frame arrived (traced: 850 cycles from the compare
+// to the raise, 300 of them in six receive ISRs); 750 gave max 12-130 us in three bench runs a
+// board against 6-19 us with 1000 (which costs the step ISR 4 % more CPU, waiting).
+static const uint16_t kEarlyTicks = 1000;
 
 // An edge due within this long is waited for rather than starting a command from the main loop:
 // the longest (~350 cycles) stretched by the UART's ISR nesting at full speed, plus
 // kCliLeadTicks. Must exceed kEarlyTicks + kMinLeadTicks.
-static const uint16_t kSoonTicks = 1200;
+static const uint16_t kSoonTicks = 1600;
 
 // A live command waits for edges due within kSoonTicks only this long into a step ISR
 // invocation (ticks): with every motor near the top of its range an edge is always that close,
@@ -112,11 +123,15 @@ static const uint8_t kPostLeadTicks = 100;
 // the burst. 300 (was 600): a note's onset 8-10 us sooner (`test_e2e "link: a note starts*"`).
 static const uint16_t kStartLeadTicks = 300;
 
-// Overload guard (ticks): kMaxIsrTicks into a step ISR invocation, the ISR plays only edges
-// already due, and returns once its bookkeeping is done, leaving the main loop
-// kMainSliceTicks to decode frames (stop-all, the watchdog). Edges are late then by up to a
-// slice, never lost.
+// Overload guard (ticks): kMaxInvocationTicks into a step ISR invocation (or when it has
+// starved the main loop, see the ISR), the ISR plays only edges already due, and returns once
+// its bookkeeping is done, leaving the main loop kMainSliceTicks to decode frames (stop-all,
+// the watchdog). Edges are late then by up to a slice, never lost. 16,000 (1 ms) made an edge
+// 15-20 us late about once a round in the pitch benchmark: four timestamped entries taken
+// between the edges of a 4 kHz note kept one invocation going 1.15 ms (it waits 1,000 ticks
+// for each edge). kMaxIsrTicks sets the starvation window (8 times it).
 static const uint16_t kMaxIsrTicks = 16000;
+static const uint16_t kMaxInvocationTicks = 32000;
 static const uint16_t kMainSliceTicks = 1600;
 
 // The main loop re-arms a compare this long overdue (ticks): while the main loop runs, the step

@@ -98,7 +98,6 @@ inline uint16_t own_ticks(uint16_t in_isr, uint8_t rx_entered) {
 // nothing left to do, and the main loop wakes it for those within kPostLeadTicks.
 
 const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
-const uint8_t kPairTicks = 11;  // burst(): from a pair's first raise to its second on another port (measured in simavr)
 // A timed strike on a sounding motor replaces an old edge due less than this before its time:
 // both would sound as one doubled step (a note change on the old note's own grid, as in a
 // legato melody, lands within a tick of an old edge). Far shorter than the command's hand-over
@@ -143,105 +142,126 @@ static_assert((board::active::kMotorCount - 1) * cfg::kComebackTicks + cfg::kRes
 // for it in time), lowering each STEP once its pulse has passed. Played motors move from
 // g_order to g_played.
 //
-// How many motors the burst plays is counted first (a few 32-bit compares), and each motor's
-// port and mask are loaded before its wait. An edge due less than kMergeTicks after the
-// previous one is raised with it as a pair, its port and mask loaded before the wait too: the
-// first one is raised half the gap (less kPairTicks) late and the second right after it (in
-// the same write when they share a port). Before pairs, a merged edge followed its partner
-// after a whole pass of the loop (60-90 cycles, not the 14 assumed), 4-5 us late. A pass of
-// the loop between two separate raises still takes 90-130 cycles (measured with
-// STEPCHOIR_VBOARD_PCTRACE): an edge due that soon after the previous raise comes late.
-// Interrupts are off from kCliLeadTicks before a raise until it is done, and stay off into the
-// next raise when that one is closer than kCliLeadTicks, unless waiting for it would keep them
-// off longer than kMaxOffTicks: then a waiting UART byte is let in first.
-// Cycles with interrupts off: at most kMaxOffTicks + one raise and its merged followers (~70).
+// The burst's raise times are planned before its first wait (16-bit, a few cycles a motor),
+// so that going from one raise to the next is a tight loop (wait for the tick, write the
+// port, note the time, load the next motor) of kWriteGapTicks:
+// - an edge due less than kWriteGapTicks after the raise before it is planned kWriteGapTicks
+//   after it, and a run of such forced raises is moved earlier by half its largest lateness
+//   (never closer than kWriteGapTicks to the raise before the run): the error is shared, each
+//   edge of two due on the same tick kWriteGapTicks / 2 off;
+// - a raise closer than kCliLeadTicks to the one before, within kMaxOffTicks of its run's
+//   first, is made in the same interrupts-off run; interrupts are off from kCliLeadTicks
+//   before a run's first raise until its last; between runs they are on, and pulses that have
+//   passed are lowered.
+// Before the plan, a pass of the raise loop (loading the next motor, deciding its wait) took
+// 90-130 cycles: an edge due that soon after another motor's raise came late.
+// Cycles with interrupts off: at most kCliLeadTicks + kMaxOffTicks + one raise.
 __attribute__((always_inline)) inline void burst() {
   const uint8_t active = g_active;
+  uint16_t at[board::active::kMotorCount];  // planned raise times
   uint8_t n = 1;
-  for (uint32_t last = g_order[0]->deadline; n < active; ++n) {
-    const uint32_t d = g_order[n]->deadline;
-    if (d - last > cfg::kComebackTicks) break;  // the order is sorted: d - last >= 0
-    last = d;
+  {
+    uint32_t last = g_order[0]->deadline;
+    at[0] = (uint16_t)last;
+    for (; n < active; ++n) {
+      const uint32_t d = g_order[n]->deadline;
+      if (d - last > cfg::kComebackTicks) break;  // the order is sorted: d - last >= 0
+      last = d;
+      at[n] = (uint16_t)d;
+    }
+  }
+  // Forced raises, and the runs made with interrupts off (see above). Bit i of joins: raise i
+  // is made in the run of raise i - 1; of breathe: after letting waiting interrupts in.
+  uint8_t joins = 0, breathe = 0;
+  if (n > 1) {
+    uint8_t run = 0;                          // first raise of the current forced run
+    uint16_t run_late = 0;                    // its largest lateness
+    uint16_t run_room = cfg::kWriteGapTicks;  // how far it may move earlier
+    uint16_t prev = at[0];
+    for (uint8_t i = 1; i <= n; ++i) {
+      uint16_t gap = 0;
+      if (i < n) {
+        gap = (uint16_t)(at[i] - prev);
+        if (gap < cfg::kWriteGapTicks) {
+          const uint16_t late = (uint16_t)(cfg::kWriteGapTicks - gap);
+          if (late > run_late) run_late = late;
+          prev = at[i] = (uint16_t)(prev + cfg::kWriteGapTicks);
+          continue;
+        }
+        prev = at[i];
+      }
+      if (run_late) {
+        const uint16_t shift = (run_late >> 1) < run_room ? (uint16_t)(run_late >> 1) : run_room;
+        for (uint8_t k = run; k < i; ++k) at[k] = (uint16_t)(at[k] - shift);
+        run_late = 0;
+      }
+      run = i;
+      run_room = (uint16_t)(gap - cfg::kWriteGapTicks);
+    }
+    uint16_t first = at[0];
+    uint8_t bit = 2;
+    for (uint8_t i = 1; i < n; ++i, bit = (uint8_t)(bit << 1)) {
+      const uint16_t gap = (uint16_t)(at[i] - at[i - 1]);
+      if (gap < cfg::kCliLeadTicks && (uint16_t)(at[i] - first) <= cfg::kMaxOffTicks) {
+        joins |= bit;
+      } else if (gap < cfg::kBreatherTicks) {
+        joins |= bit;
+        breathe |= bit;
+        first = at[i - 1];
+      } else {
+        first = at[i];
+      }
+    }
   }
   uint16_t raised[board::active::kMotorCount];
   uint8_t low = 0;
-  uint16_t off_since = 0, prev = 0;
-  bool off = false;
-  for (uint8_t i = 0; i < n; ++i) {
-    Motor *m = g_order[i];
-    const uint16_t t = (uint16_t)m->deadline;
-    volatile uint8_t *const port = m->step_port;
+  Motor *const *op = g_order;
+  const uint16_t *tp = at;
+  uint16_t *rp = raised;
+  for (uint8_t i = 0, bit = 1; i < n;) {
+    const Motor *m = *op;
+    uint16_t t = *tp;
+    volatile uint8_t *port = m->step_port;
     uint8_t mask = m->step_mask;
-    // A pair: the next edge due less than kMergeTicks after this one is raised together with
-    // it, its port and mask loaded before the wait (one write when they share a port).
-    volatile uint8_t *port2 = port;
-    uint8_t mask2 = 0;  // nonzero: a pair on two ports
-    bool pair = false;
-    if (i == 0 || (uint16_t)(t - prev) >= cfg::kMergeTicks) {
-      prev = t;
-      uint16_t at = t;
-      if (i + 1 < n) {
-        const Motor *next = g_order[i + 1];
-        const uint16_t gap = (uint16_t)((uint16_t)next->deadline - t);
-        if (gap < cfg::kMergeTicks) {
-          // raise this one a little late and that one right after it, splitting the error
-          pair = true;
-          port2 = next->step_port;
-          mask2 = next->step_mask;
-          const uint8_t pair_ticks = port2 == port ? 0 : kPairTicks;
-          if (port2 == port) {
-            mask = (uint8_t)(mask | mask2);
-            mask2 = 0;
-          }
-          if (gap > pair_ticks) at = (uint16_t)(t + ((gap - pair_ticks) >> 1));
-        }
+    while ((int16_t)(t - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
+      if (low < i && (uint16_t)(TCNT1 - raised[low]) >= g_order[low]->pulse_ticks) {
+        *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop and
+        ++low;                                                            // nested ISRs keep off
       }
-      if ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-        sei();
-        off = false;
-        while ((int16_t)(at - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-          if (low < i && (uint16_t)(TCNT1 - raised[low]) >= g_order[low]->pulse_ticks) {
-            *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop
-            ++low;                                                            // and nested ISRs keep off
-          }
-        }
-      } else if (off && (uint16_t)(at - off_since) > cfg::kMaxOffTicks) {
-        sei();  // waiting with interrupts still off would keep them off too long: a UART byte first
-        __asm__ __volatile__("nop");
-        off = false;
-      }
-      if (!off) {
-        cli();
-        off = true;
-        off_since = TCNT1;
-      }
-      while ((int16_t)(at - TCNT1) > 0) {
-      }
-    } else if ((uint16_t)(TCNT1 - off_since) > cfg::kMaxOffTicks) {  // a merged follower, late
-      sei();                                                           // in a long chain: a
-      __asm__ __volatile__("nop");                                     // waiting UART byte first
-      cli();
-      off_since = TCNT1;
     }
-    *port |= mask;
-    if (mask2) *port2 |= mask2;  // the pair's second edge, on another port
-    raised[i] = TCNT1;
-    if (pair) {
-      raised[i + 1] = raised[i];
+    cli();
+    for (;;) {
+      while ((int16_t)(t - TCNT1) > 0) {
+      }
+      *port |= mask;
+      *rp++ = TCNT1;
+      ++op;
+      ++tp;
       ++i;
+      bit = (uint8_t)(bit << 1);
+      if (!(joins & bit)) break;  // also past the last raise: no bit set there
+      m = *op;
+      t = *tp;
+      port = m->step_port;
+      mask = m->step_mask;
+      if (breathe & bit) {
+        sei();
+        __asm__ __volatile__("nop");
+        cli();
+      }
     }
+    sei();
   }
-  sei();
   for (; low < n; ++low) {
-    Motor *p = g_order[low];
+    const Motor *p = g_order[low];
     while ((uint16_t)(TCNT1 - raised[low]) < p->pulse_ticks) {
     }
     *p->step_port &= (uint8_t)~p->step_mask;
   }
   for (uint8_t i = 0; i < n; ++i) {
-    if ((int16_t)(raised[i] - (uint16_t)g_order[i]->deadline) > (int16_t)kLateTicks)
-      g_late_edges = (uint16_t)(g_late_edges + 1);
     Motor *p = g_order[i];
+    if ((int16_t)(raised[i] - (uint16_t)p->deadline) > (int16_t)kLateTicks)
+      g_late_edges = (uint16_t)(g_late_edges + 1);
     p->next_rough = p->deadline + (p->period_q8 >> 8);
     g_played[g_played_count++] = p;
   }
@@ -711,11 +731,11 @@ void silence_all() {
 // motor first, as its own next edge may follow soon. It returns when nothing is left to do and
 // the next edge is far enough to come back for it.
 // Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most 238 cycles with light traffic (at its entry, before the sei below),
-// 263 (16.4 us, in burst()) with frames back to back at full line speed; one invocation up to
-// 9,956 cycles (uno) / 13,981 (mega) with interrupts on, while four or five motors play; CPU
-// load 32 % (uno) / 41 % (mega) with every motor sounding: about 1,500 cycles an edge, a third
-// of them spent waiting for the edge with interrupts on.
+// interrupts off at most 236 cycles (uno) / 242 (mega), at its entry before the sei below, also
+// with frames back to back at full line speed (a burst's runs stay under that: kCliLeadTicks +
+// kMaxOffTicks + a raise); one invocation up to 18,673 cycles (uno) / 15,189 (mega) with
+// interrupts on, while four or five motors play; CPU load 40 % (uno) / 49 % (mega) with every
+// motor sounding, much of it waiting for edges with interrupts on (kEarlyTicks).
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
   // Idle (no motor sounds, nothing posted or queued): only the 16-bit timer's extension, every
@@ -735,7 +755,7 @@ ISR(TIMER1_COMPA_vect) {
   for (;;) {
     const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
     g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
-    // Overload: kMaxIsrTicks into this invocation, or when the main loop has not begun a
+    // Overload: kMaxInvocationTicks into this invocation, or when the main loop has not begun a
     // pass for 8 * kMaxIsrTicks and this ISR took 3/4 of that time, the ISR stops waiting for
     // edges (it plays only those already due) and returns as soon as its work is done,
     // leaving the main loop kMainSliceTicks. Edges are then late, but frames, stop-all and the
@@ -747,7 +767,7 @@ ISR(TIMER1_COMPA_vect) {
     // bytes nested in this one do not count as its time.)
     const uint16_t in_isr = (uint16_t)(TCNT1 - entered);
     const uint32_t since_main = now - g_main_pass;
-    const bool overdue = in_isr > cfg::kMaxIsrTicks ||
+    const bool overdue = in_isr > cfg::kMaxInvocationTicks ||
                          (since_main > 8ul * cfg::kMaxIsrTicks && g_isr_busy + own_ticks(in_isr, rx_entered) > since_main - (since_main >> 2));
     const AtSlot *entry = entry_due(now);
     // An entry close to its time goes before any edge not yet due (with every motor high,

@@ -14,8 +14,11 @@
 //   |--- I on -------|-- I off ---|------ I on -----|
 //   STEP  ____________________________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________
 //
-// Motors due within kComebackTicks of the previous edge are played in the same burst; two due
-// less than kMergeTicks apart are raised as a pair (the error split between them). Between
+// Motors due within kComebackTicks of the previous edge are played in the same burst, whose
+// raise times are planned before its first wait: edges closer than kWriteGapTicks (one pass of
+// the raise loop) share the difference, and raises close together run with interrupts off
+// from the first to the last, letting waiting interrupts in between them when they are
+// further apart than kCliLeadTicks (kBreatherTicks). Between
 // bursts the ISR does its other work in small pieces, each only when no edge is due within
 // kSoonTicks: a played motor's next deadline and sorted place, a step's position and endstop
 // bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox,
@@ -25,7 +28,8 @@
 // a silent motor itself when no edge is near (its first edge raised at once, the motor left to
 // the ISR's bookkeeping), so that a live note's onset is not held up by the ISR's hand-over. When the
 // ISR has kept it from beginning a pass for 8 ms, taking 3/4 of the CPU, the ISR leaves it
-// slices (cfg::kMaxIsrTicks, kMainSliceTicks) and its edges fall late instead.
+// slices (cfg::kMaxIsrTicks, kMaxInvocationTicks, kMainSliceTicks) and its edges fall late
+// instead.
 // Measured on the virtual board: bench/results/pitch-<board>.md.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H
