@@ -47,10 +47,13 @@ static const uint8_t kTxRingBytes = 128;
 
 // A motor due within this long after the previous edge is played in the same burst (ticks =
 // CPU cycles): going back through the ISR loop and into a new burst takes about this long, so
-// it would be late otherwise (measured: 450-600 cycles with the ISR's bookkeeping in between).
-// With kRescheduleTicks it bounds a burst: (motors - 1) * kComebackTicks + kRescheduleTicks
-// must fit in the shortest period (checked in scheduler.cpp).
-static const uint16_t kComebackTicks = 700;
+// it would be late otherwise (traced with the planned burst: the last pulse, the loop and the
+// plan 400-600 cycles, and up to 330 more in UART ISRs while a reply goes out: with 700 an
+// edge due 717 ticks after another came 16 us late). A burst spans at most kBurstSpanTicks
+// from its first edge: with kRescheduleTicks that fits in the shortest period (checked in
+// scheduler.cpp), so no motor's next step comes before its bookkeeping.
+static const uint16_t kComebackTicks = 1000;
+static const uint16_t kBurstSpanTicks = 2800;
 
 // A played motor's next deadline and place in the order are worked out within this long after
 // a burst (ticks): the step ISR's bookkeeping of one step, stretched by nested UART ISRs.
@@ -70,11 +73,13 @@ static const uint8_t kCliLeadTicks = 112;
 static const uint8_t kMaxOffTicks = 72;
 
 // Planned spacing of two STEP writes in a burst (ticks): the raise loop's pass from one write to
-// the next (wait for the tick, write the port, note the time, load the next motor): 59 cycles
-// between two raises on both boards in the benchmark's traces. Edges due closer together share
-// the difference (see burst() in scheduler.cpp). Same-port edges are not merged into one write:
-// folding them in made that pass 94 cycles.
-static const uint8_t kWriteGapTicks = 59;
+// the next (wait for the tick, write the port, note the time, load the next motor): 52 cycles
+// between two raises on both boards in the benchmark's traces (59 before the wait, write and
+// store went to assembly). Edges due closer together share the difference (see burst() in
+// scheduler.cpp): two due on the same tick are each about 26 cycles (1.6 us) off, plus the
+// wait's 8-cycle step. Same-port edges are not merged into one write: folding them in made
+// the pass 94 cycles.
+static const uint8_t kWriteGapTicks = 52;
 
 // Two raises of a burst less than this far apart (ticks) but too far to keep interrupts off
 // between them stay in one run: after the first, waiting interrupts are let in (a UART ISR
@@ -104,8 +109,15 @@ static const uint16_t kCmdWaitTicks = 4000;
 
 // An edge due within this long is waited for rather than starting a played motor's bookkeeping
 // (ticks): bookkeep_one (about 300 cycles) and the ISR's loop back into a burst (about 250),
-// stretched by nested UART ISRs, plus kCliLeadTicks.
+// stretched by nested UART ISRs, plus kCliLeadTicks. 1200 kept every Uno edge of the pitch
+// benchmark within 1.8 us, but left the Mega's five motors no gap for it (edges 45-107 us
+// late); so did 1200 with less room when a played motor's own edge was near (800).
 static const uint16_t kBookkeepTicks = 1000;
+// ... while the UART sends a reply or bytes came in during this step ISR invocation: their ISRs
+// stretch it (traced: 450-500 of 1,500 cycles in UART ISRs, the next edge 5-10 us late).
+// Always this long, bookkeeping starved (three motors whose edges came 1,600 ticks apart in
+// turn left a fourth's no room: one edge 36 us late).
+static const uint16_t kBookkeepBusyTicks = 1400;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks). On a chip a
 // few cycles would do; simavr 1.6 misses a compare armed 48 ticks ahead (measured), 200 is

@@ -41,6 +41,9 @@ __attribute__((always_inline)) inline bool wait_byte(uint8_t *out, uint16_t max_
 // earlier call are (now - then) mod cfg::kRxRingBytes (fewer than a ring's worth between calls).
 uint8_t rx_head();
 
+// Called from: step ISR. True while the transmit ISR is sending a reply (its interrupt on).
+bool sending();
+
 }  // namespace link
 
 #endif  // STEPCHOIR_LINK_H

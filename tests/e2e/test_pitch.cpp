@@ -103,15 +103,15 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 
 // The targets (p99 2 us, max 8 us) hold for a motor playing alone (below). With four
 // or five motors at once the step ISR plans each burst's raises (edges due close together
-// share a 59-cycle pass of its raise loop), but single edges still come late when its other
+// share a 52-cycle pass of its raise loop), but single edges still come late when its other
 // work (bookkeeping, timestamped entries, nested UART ISRs) holds a burst up, and at full line
 // speed five motors (mega, chord 3: 7,900 steps a second) overload it, so its guard hands the
 // main loop time and edges come up to ~0.4 ms late. These bounds are the envelope measured
 // with the current scheduler (docs/ARCHITECTURE.md, bench/results), kept as a regression
 // guard; pitch is held to the target everywhere. Live traffic, uno (these chords reach MIDI
-// 105; status replies go out), 24 runs: worst p99 3.0-20.3 us (over 8 us in 3), worst max
-// 6.0-26.8 us; while tuning, one run had one edge 102 us late (before the planned burst, 18
-// runs: p99 4.4-11.8 us, max 7.1-17.9 us, and one in 21 an edge 126 us late).
+// 105; status replies go out), 9 runs: worst p99 2.8-9.8 us, worst max 6.1-18.1 us; while
+// tuning, one run had one edge 102 us late (before the planned burst, 18 runs: p99 4.4-11.8
+// us, max 7.1-17.9 us, and one in 21 an edge 126 us late).
 const Bounds kFullSpeed = {400.0, 800.0};
 const Bounds kLiveTraffic = {20.0, 40.0};
 const Bounds kTarget = {2.0, 8.0};

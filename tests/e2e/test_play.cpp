@@ -358,7 +358,9 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   // step ISR can make on time: edges fall late and it leaves the main loop little. One motor
   // changes note every 2.5 ms, 160 times. The step ISR takes each entry from the queue itself,
   // so almost none comes late (the board answers those `late`); each change sounds at its
-  // pitch until the next, and strikes within the overload's lateness (measured p99 300 us).
+  // pitch until the next, and strikes within the overload's lateness (measured p99 394-402 us
+  // over 9 runs; 306 us before the step ISR planned its bursts and woke 1,000 ticks ahead of
+  // an edge instead of 600: in overload that lead is the ISR's time per edge).
   // The board runs at a quarter of real time, paced by the wall clock from one clock sample as
   // a player sends: the host's lead never runs short. (At MIDI 105-108 with this traffic the
   // main loop gets too little to keep up with the line: frames are lost; see RELIABILITY.md.)
@@ -442,7 +444,7 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   std::printf("at under load: strikes p50 %.1f us, p99 %.1f us, max %.1f us from their ticks; %zu late replies; "
               "%u late edges; %.0f steps for %.1f on the grid\n",
               p50, p99, strike_us.back(), b.errors().size(), unsigned{st->head.late_edges}, steps_played, steps_on_grid);
-  CHECK(std::fabs(strike_us[strike_us.size() * 99 / 100]) < 400.0);
+  CHECK(std::fabs(strike_us[strike_us.size() * 99 / 100]) < 450.0);
 }
 
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam]") {

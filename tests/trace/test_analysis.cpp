@@ -86,6 +86,26 @@ TEST_CASE("fit measures a detuned run in cents - sign = sharp positive", "[analy
   CHECK(flat.residual_max_cycles > 1000);
 }
 
+TEST_CASE("a step held up at the end of a note does not tilt its pitch", "[analysis]") {
+  // A 98 Hz note, 93 edges on the grid, the last one 200 us late (as at full line speed): the
+  // first fit's slope is 0.05 cent off (and leaves the edges next to the late one over 8 us
+  // off its line too); the pitch comes from the refit without them, and the lateness shows in
+  // the residuals.
+  const double period = synth::kFCpuHz / 98.0;
+  std::vector<uint64_t> edges = jittered_edges(93, period, 1000.0);
+  const uint64_t late = uint64_t(200e-6 * synth::kFCpuHz);
+  edges.back() += late;
+  const PitchFit fit = fit_edges(edges, period, synth::kFCpuHz);
+  CHECK(fit.pitch_edge_count < 93);
+  CHECK(fit.pitch_edge_count >= 85);
+  CHECK(std::fabs(fit.cents_error) < 0.001);
+  CHECK(fit.residual_max_us > 190.0);
+  // Half the edges or more off the line: no refit (the first fit stands).
+  std::vector<uint64_t> bent = jittered_edges(10, period, 1000.0);
+  for (size_t k = 5; k < bent.size(); ++k) bent[k] += late;
+  CHECK(fit_edges(bent, period, synth::kFCpuHz).pitch_edge_count == bent.size());
+}
+
 TEST_CASE("the constant offset is removed from the residuals", "[analysis]") {
   std::vector<uint64_t> edges = {1000, 2010, 3000, 4010, 5000};
   std::vector<double> residual = grid_residuals_cycles(edges, 1000);
