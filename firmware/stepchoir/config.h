@@ -49,7 +49,7 @@ static const uint8_t kTxRingBytes = 128;
 // CPU cycles): going back through the ISR loop and into a new burst takes about this long, so
 // it would be late otherwise (traced with the planned burst: the last pulse, the loop and the
 // plan 400-600 cycles, and up to 330 more in UART ISRs while a reply goes out: with 700 an
-// edge due 717 ticks after another came 16 us late). A burst spans at most kBurstSpanTicks
+// edge due just over 700 ticks after another came 16 us late). A burst spans at most kBurstSpanTicks
 // from its first edge: with kRescheduleTicks that fits in the shortest period (checked in
 // scheduler.cpp), so no motor's next step comes before its bookkeeping.
 static const uint16_t kComebackTicks = 1000;
@@ -62,7 +62,7 @@ static const uint16_t kRescheduleTicks = 400;
 // The step ISR turns interrupts off this long before an edge and busy-waits for it, so the
 // raise is on the exact tick whatever ran before. Longer than the longest other ISR (the
 // UART receive ISR: 67 cycles measured) plus a pass of the wait loop that lowers pulses (about
-// 30): with 64, an edge whose wait a UART ISR entered late came up to 40 cycles late (traced).
+// 30): with 64, an edge whose wait a UART ISR entered late came about 30 cycles late (traced).
 static const uint8_t kCliLeadTicks = 112;
 
 // Within a burst, interrupts stay off across raises closer together than kCliLeadTicks, from
@@ -91,8 +91,9 @@ static const uint8_t kBreatherTicks = 200;
 // The compare unit fires this long before a deadline: time for the ISR's prologue, its loop and
 // the burst's plan, stretched by nested UART ISRs, before kCliLeadTicks. 62.5 us: with 600 and
 // 750 the planned burst came late while a frame arrived (traced: 850 cycles from the compare
-// to the raise, 300 of them in six receive ISRs); 750 gave max 12-130 us in three bench runs a
-// board against 6-19 us with 1000 (which costs the step ISR 4 % more CPU, waiting).
+// to the raise, 300 of them in six receive ISRs); 750 gave a worst edge of 4.8-130 us (Uno)
+// and 13-18 us (Mega) in three bench runs a board, 1000 4-19 us (one Mega run 100 us) at the
+// same stage; 1000 costs the step ISR 4 % more CPU (36 -> 40 % on the Uno), waiting.
 static const uint16_t kEarlyTicks = 1000;
 
 // An edge due within this long is waited for rather than starting a command from the main loop:
@@ -114,7 +115,7 @@ static const uint16_t kCmdWaitTicks = 4000;
 // late); so did 1200 with less room when a played motor's own edge was near (800).
 static const uint16_t kBookkeepTicks = 1000;
 // ... while the UART sends a reply or bytes came in during this step ISR invocation: their ISRs
-// stretch it (traced: 450-500 of 1,500 cycles in UART ISRs, the next edge 5-10 us late).
+// stretch it (traced: 450-500 of 1,500 cycles in UART ISRs, the next edge over 5 us late).
 // Always this long, bookkeeping starved (three motors whose edges came 1,600 ticks apart in
 // turn left a fourth's no room: one edge 36 us late).
 static const uint16_t kBookkeepBusyTicks = 1400;
@@ -138,8 +139,8 @@ static const uint16_t kStartLeadTicks = 300;
 // Overload guard (ticks): kMaxInvocationTicks into a step ISR invocation (or when it has
 // starved the main loop, see the ISR), the ISR plays only edges already due, and returns once
 // its bookkeeping is done, leaving the main loop kMainSliceTicks to decode frames (stop-all,
-// the watchdog). Edges are late then by up to a slice, never lost. 16,000 (1 ms) made an edge
-// 15-20 us late about once a round in the pitch benchmark: four timestamped entries taken
+// the watchdog). Edges are late then by up to a slice, never lost. 16,000 (1 ms) made one edge
+// 15-20 us late in each run of the pitch benchmark (the same edge): four timestamped entries taken
 // between the edges of a 4 kHz note kept one invocation going 1.15 ms (it waits 1,000 ticks
 // for each edge). kMaxIsrTicks sets the starvation window (8 times it).
 static const uint16_t kMaxIsrTicks = 16000;

@@ -176,11 +176,15 @@ __attribute__((always_inline)) inline void raise_at(uint16_t t, volatile uint8_t
 //   edge of two due on the same tick kWriteGapTicks / 2 off;
 // - a raise closer than kCliLeadTicks to the one before, within kMaxOffTicks of its run's
 //   first, is made in the same interrupts-off run; interrupts are off from kCliLeadTicks
-//   before a run's first raise until its last; between runs they are on, and pulses that have
-//   passed are lowered.
+//   before a run's first raise until its last;
+// - a raise less than kBreatherTicks after the one before (but not in its run) stays in the
+//   loop: waiting interrupts are let in (sei, nop, cli) right after the raise before, then
+//   they are off until this one;
+// - further apart, interrupts are on between runs, and pulses that have passed are lowered.
 // Before the plan, a pass of the raise loop (loading the next motor, deciding its wait) took
 // 90-130 cycles: an edge due that soon after another motor's raise came late.
-// Cycles with interrupts off: at most kCliLeadTicks + kMaxOffTicks + one raise.
+// Cycles with interrupts off: at most kCliLeadTicks + kMaxOffTicks, or kBreatherTicks after a
+// breath, plus one raise.
 __attribute__((always_inline)) inline void burst() {
   const uint8_t active = g_active;
   uint16_t at[board::active::kMotorCount];  // planned raise times
@@ -222,6 +226,7 @@ __attribute__((always_inline)) inline void burst() {
         for (uint8_t k = run; k < i; ++k) at[k] = (uint16_t)(at[k] - shift);
         run_late = 0;
       }
+      if (i == n) break;
       run = i;
       run_room = (uint16_t)(gap - cfg::kWriteGapTicks);
     }
@@ -810,11 +815,13 @@ ISR(TIMER1_COMPA_vect) {
       // command waits for close edges only kCmdWaitTicks into the invocation (with every motor
       // high an edge is always close); a due entry has until it is urgent (above).
       // While UART bytes come or go, their ISRs (up to 30 % of the CPU each way) stretch the
-      // bookkeeping and the burst's plan: it starts only further from the head.
+      // bookkeeping and the burst's plan: it starts only further from the head (the UART state
+      // is read only when a played motor waits).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      const bool uart_busy = link::sending() || link::rx_head() != rx_entered;
       const uint16_t wait_within = overdue || urgent ? 0
-                                   : g_played_count    ? (uart_busy ? cfg::kBookkeepBusyTicks : cfg::kBookkeepTicks)
+                                   : g_played_count    ? (link::sending() || link::rx_head() != rx_entered
+                                                              ? cfg::kBookkeepBusyTicks
+                                                              : cfg::kBookkeepTicks)
                                    : g_cmd_mask        ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
                                    : entry             ? cfg::kSoonTicks
                                                        : cfg::kEarlyTicks + cfg::kMinLeadTicks;

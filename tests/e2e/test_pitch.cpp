@@ -109,9 +109,10 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // main loop time and edges come up to ~0.4 ms late. These bounds are the envelope measured
 // with the current scheduler (docs/ARCHITECTURE.md, bench/results), kept as a regression
 // guard; pitch is held to the target everywhere. Live traffic, uno (these chords reach MIDI
-// 105; status replies go out), 9 runs: worst p99 2.8-9.8 us, worst max 6.1-18.1 us; while
-// tuning, one run had one edge 102 us late (before the planned burst, 18 runs: p99 4.4-11.8
-// us, max 7.1-17.9 us, and one in 21 an edge 126 us late).
+// 105; status replies go out), 9 runs: worst p99 2.8-9.8 us, worst max 6.1-18.1 us; about one
+// run in ten has a single event 80-113 us late (not explained; the rerun covers it) (before
+// the planned burst, 18 runs: p99 4.4-11.8 us, max 7.1-17.9 us, and one in 21 an edge 126 us
+// late).
 const Bounds kFullSpeed = {400.0, 800.0};
 const Bounds kLiveTraffic = {20.0, 40.0};
 const Bounds kTarget = {2.0, 8.0};

@@ -358,8 +358,8 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   // step ISR can make on time: edges fall late and it leaves the main loop little. One motor
   // changes note every 2.5 ms, 160 times. The step ISR takes each entry from the queue itself,
   // so almost none comes late (the board answers those `late`); each change sounds at its
-  // pitch until the next, and strikes within the overload's lateness (measured p99 394-402 us
-  // over 9 runs; 306 us before the step ISR planned its bursts and woke 1,000 ticks ahead of
+  // pitch until the next, and strikes within the overload's lateness (measured p99 394 us in
+  // 8 runs; 306 us in 3 before the step ISR planned its bursts and woke 1,000 ticks ahead of
   // an edge instead of 600: in overload that lead is the ISR's time per edge).
   // The board runs at a quarter of real time, paced by the wall clock from one clock sample as
   // a player sends: the host's lead never runs short. (At MIDI 105-108 with this traffic the

@@ -88,7 +88,7 @@ TEST_CASE("fit measures a detuned run in cents - sign = sharp positive", "[analy
 
 TEST_CASE("a step held up at the end of a note does not tilt its pitch", "[analysis]") {
   // A 98 Hz note, 93 edges on the grid, the last one 200 us late (as at full line speed): the
-  // first fit's slope is 0.05 cent off (and leaves the edges next to the late one over 8 us
+  // first fit's slope is 0.023 cent off (and leaves the edges next to the late one over 8 us
   // off its line too); the pitch comes from the refit without them, and the lateness shows in
   // the residuals.
   const double period = synth::kFCpuHz / 98.0;

@@ -10,9 +10,6 @@ namespace trace {
 
 constexpr double kMedianQuantile = 0.50;
 constexpr double kP99Quantile = 0.99;
-// Edges further than this from the first least-squares line are left out of the pitch's
-// second fit (fit_edges).
-constexpr double kPitchOutlierUs = 8.0;
 
 double percentile_nearest_rank(std::vector<double> values, double q) {
   if (values.empty()) return 0;
@@ -54,8 +51,9 @@ PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period
   // The period is the least-squares slope of edge time against edge index: every edge counts,
   // so a late first or last edge does not bias the pitch as much as first-to-last would. An
   // edge far off that line (kPitchOutlierUs: a step held up, which the residuals below report
-  // as jitter) still tilts it: at full line speed one edge 200 us late at an end of a 93-edge
-  // note moved it 0.05 cent. So the slope is fitted again without those, when at least half
+  // as jitter) still tilts it: one edge 200 us late at the end of a 93-edge 98 Hz note moves it
+  // 0.023 cent, and a few such edges made 0.05-0.11 cent in the full-line-speed e2e tests. So
+  // the slope is fitted again without those, when at least half
   // the edges remain: the deadlines are absolute, so a late step does not move the ones after
   // it, and the pitch is the rate of the others. Times are relative to the first edge to keep
   // the sums exact in doubles.
@@ -85,14 +83,9 @@ PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period
     keep[k] = std::fabs(t - (intercept + fit.mean_period_cycles * double(k))) <= outlier_cycles;
     kept += keep[k] ? 1 : 0;
   }
-  if (kept < n && kept >= 2 && 2 * kept >= n) {
-    size_t first = 0, last = n - 1;
-    while (!keep[first]) ++first;
-    while (!keep[last]) --last;
-    if (last > first) {
-      fit.mean_period_cycles = slope(&keep, &intercept);
-      fit.pitch_edge_count = kept;
-    }
+  if (kept < n && kept >= 2 && 2 * kept >= n) {  // two kept edges have different indices
+    fit.mean_period_cycles = slope(&keep, &intercept);
+    fit.pitch_edge_count = kept;
   }
   fit.ideal_hz = f_cpu_hz / ideal_period_cycles;
   fit.measured_hz = f_cpu_hz / fit.mean_period_cycles;

@@ -19,13 +19,16 @@ constexpr double kMidiA4 = 69.0;              // MIDI note number of A4
 constexpr double kSemitonesPerOctave = 12.0;
 constexpr double kCentsPerOctave = 1200.0;
 constexpr double kMicrosPerSecond = 1e6;
+// fit_edges leaves edges further than this from its first least-squares line out of the
+// pitch's second fit.
+constexpr double kPitchOutlierUs = 8.0;
 
 // Result of fitting a run of STEP edges against an ideal period.
 struct PitchFit {
   size_t edge_count = 0;
   double ideal_period_cycles = 0;
   double mean_period_cycles = 0;   // least-squares slope of edge time against edge index,
-                                   // refitted without edges over 8 us off the first line
+                                   // refitted without edges over kPitchOutlierUs off the first line
   size_t pitch_edge_count = 0;     // edges in that fit
   double ideal_hz = 0;             // f_cpu_hz / ideal_period_cycles
   double measured_hz = 0;          // f_cpu_hz / mean_period_cycles
@@ -40,8 +43,8 @@ struct PitchFit {
 };
 
 // Fits edges (ascending CPU cycles, at least 2) against an ideal period: the measured period
-// is the least-squares slope of edge time against index (edges over 8 us off that line left
-// out of a second fit, when at least half remain). f_cpu_hz converts
+// is the least-squares slope of edge time against index (edges over kPitchOutlierUs off that
+// line left out of a second fit, when at least half remain). f_cpu_hz converts
 // cycles to Hz and us: pass trace.f_cpu_hz for board time or trace.real_f_cpu_hz() for real
 // time. Throws std::invalid_argument on fewer than 2 edges or a non-positive period/clock.
 PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period_cycles,
