@@ -194,6 +194,13 @@ void AvrAdapter::set_end_cycle(uint64_t end_cycle) {
 }
 
 namespace {
+// "%p" in a debugging aid's path becomes the process id: one file per process when several run.
+std::string with_pid(std::string path) {
+  const size_t pid_at = path.find("%p");
+  if (pid_at != std::string::npos) path.replace(pid_at, 2, std::to_string(getpid()));
+  return path;
+}
+
 // Cycles spent at each flash address, written at exit (see STEPCHOIR_VBOARD_PCPROFILE).
 struct PcProfile {
   std::string path;
@@ -206,11 +213,49 @@ struct PcProfile {
   }
   ~PcProfile() {
     if (path.empty()) return;
-    const size_t pid_at = path.find("%p");  // one file per process when several run
-    if (pid_at != std::string::npos) path.replace(pid_at, 2, std::to_string(getpid()));
+    path = with_pid(path);
     if (FILE *f = std::fopen(path.c_str(), "w")) {
       for (size_t a = 0; a < cycles.size(); ++a)
         if (cycles[a]) std::fprintf(f, "%zx %llu\n", a, static_cast<unsigned long long>(cycles[a]));
+      std::fclose(f);
+    }
+  }
+};
+
+
+// The last 65,536 instructions ("cycle pc I", see STEPCHOIR_VBOARD_PCTRACE), written when the
+// core crashes or, with a watched RAM byte, each time that byte changes.
+struct PcTrace {
+  std::string path;
+  std::vector<std::array<uint32_t, 3>> ring;
+  size_t next = 0;
+  long watch = -1;         // RAM address watched, or -1
+  uint64_t after = 0;      // watch from this cycle on
+  int max_dumps = 20, dumps = 0;
+  int last = -1;           // the watched byte's value at the previous step
+  // Called from: run_until, once. Null path: records nothing.
+  explicit PcTrace(const char *p) : path(p ? with_pid(p) : ""), ring(p ? 65536 : 0) {
+    if (!p) return;
+    if (const char *w = std::getenv("STEPCHOIR_VBOARD_PCTRACE_WATCH")) watch = std::strtol(w, nullptr, 0);
+    if (const char *a = std::getenv("STEPCHOIR_VBOARD_PCTRACE_AFTER")) after = std::strtoull(a, nullptr, 0);
+    if (const char *m = std::getenv("STEPCHOIR_VBOARD_PCTRACE_MAX")) max_dumps = std::atoi(m);
+  }
+  // Called from: run_until, every step. True when the watched byte changed: dump now.
+  bool record(const avr_t *avr) {
+    ring[next++ & 65535] = {static_cast<uint32_t>(avr->cycle), avr->pc, avr->sreg[S_I]};
+    if (watch < 0 || watch > avr->ramend || dumps >= max_dumps) return false;
+    const int v = avr->data[watch];
+    const bool changed = last >= 0 && v != last && avr->cycle >= after;
+    last = v;
+    return changed;
+  }
+  // Writes the ring to file, oldest first.
+  void write(const std::string &file) const {
+    if (FILE *f = std::fopen(file.c_str(), "w")) {
+      for (size_t i = 0; i < 65536; ++i) {
+        const auto &e = ring[(next + i) & 65535];
+        std::fprintf(f, "%u %x %u\n", e[0], e[1], e[2]);
+      }
       std::fclose(f);
     }
   }
@@ -228,17 +273,18 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     const uint8_t *const flash = avr->flash;
     InstructionSample s;
     // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH keeps the last 65536 steps ("cycle pc I")
-    // and writes them to PATH when the run ends or the core crashes.
-    static const char *pc_path = std::getenv("STEPCHOIR_VBOARD_PCTRACE");
-    static std::vector<std::array<uint32_t, 3>> pc_ring(pc_path ? 65536 : 0);
-    static size_t pc_next = 0;
+    // and writes them to PATH (and RAM to PATH.ram) when the core crashes; with
+    // STEPCHOIR_VBOARD_PCTRACE_WATCH=ADDR also to PATH.1, PATH.2, ... each time the RAM byte at
+    // ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
+    static PcTrace pc_trace(std::getenv("STEPCHOIR_VBOARD_PCTRACE"));
     // Debugging aid: STEPCHOIR_VBOARD_PCPROFILE=PATH counts the cycles spent at each flash
     // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit ("%p" in
     // PATH becomes the process id); map them
     // to functions with avr-addr2line or avr-objdump -d.
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     while (avr->cycle < end_cycle && !core_stopped(state)) {
-      if (pc_path) pc_ring[pc_next++ & 65535] = {(uint32_t)avr->cycle, avr->pc, avr->sreg[S_I]};
+      if (!pc_trace.path.empty() && pc_trace.record(avr))
+        pc_trace.write(pc_trace.path + "." + std::to_string(++pc_trace.dumps));
       s.pc_before_bytes = avr->pc;
       s.cycle_before = avr->cycle;
       s.i_before = avr->sreg[S_I] != 0;
@@ -251,15 +297,9 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
       profiler.on_step(s);
       pc_profile.add(s.pc_before_bytes, s.cycle_after - s.cycle_before);
     }
-    if (pc_path && core_stopped(state)) {
-      if (FILE *f = std::fopen(pc_path, "w")) {
-        for (size_t i = 0; i < 65536; ++i) {
-          const auto &e = pc_ring[(pc_next + i) & 65535];
-          std::fprintf(f, "%u %x %u\n", e[0], e[1], e[2]);
-        }
-        std::fclose(f);
-      }
-      std::string ram = std::string(pc_path) + ".ram";
+    if (!pc_trace.path.empty() && core_stopped(state)) {
+      pc_trace.write(pc_trace.path);
+      std::string ram = pc_trace.path + ".ram";
       if (FILE *f = std::fopen(ram.c_str(), "wb")) {
         std::fwrite(avr->data, 1, avr->ramend + 1, f);
         std::fclose(f);
