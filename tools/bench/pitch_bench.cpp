@@ -40,6 +40,8 @@ constexpr double kSettleSeconds = 0.02;
 // A note further off than this (half a semitone) is a different note: the board did not play
 // what was scheduled (a lost or late `at` frame); its jitter against the grid means nothing.
 constexpr double kWrongNoteCents = 50;
+// Notes listed under "Worst edges", per pass.
+constexpr size_t kWorstEdgesListed = 10;
 // Board time from the clock reply to the first round: room to queue the first rounds.
 constexpr double kLeadSeconds = 0.2;
 // Board time kept running after the last round's silence, so its last edges are in the trace.
@@ -108,6 +110,9 @@ struct NoteResult {
   double jitter_p99_us = 0;   // grid residuals (fit_edges)
   double jitter_max_us = 0;
   double min_pulse_us = 0;    // shortest STEP high time in the window
+  uint64_t worst_edge_cycle = 0;   // the edge furthest off the grid (jitter_max_us)
+  double worst_edge_us = 0;        // signed: + late, - early
+  std::string worst_edge_others;   // other motors' edges near it, "m2 -1234" (cycles before)
 };
 
 // One ISR's line of the vboard summary.
@@ -438,6 +443,34 @@ void read_vboard_summary(const tr::Trace &t, const std::string &board_name, Pass
   }
 }
 
+// Other motors' edges this close before a late edge (cycles) are listed with it: the bursts the
+// step ISR played or planned just before (its compare leads an edge by 1,000 ticks).
+constexpr uint64_t kNeighbourCycles = 3000;
+
+// Fills n's worst edge: the one furthest off the ideal grid (the residual fit_edges' max is
+// taken from), when it is, and the other motors' edges from kNeighbourCycles before it to 100
+// after: the configuration that made it late.
+void note_worst_edge(const tr::Trace &t, size_t motor, const std::vector<uint64_t> &edges, double period_cycles,
+                     NoteResult *n) {
+  const std::vector<double> residual = tr::grid_residuals_cycles(edges, period_cycles);
+  size_t worst = 0;
+  for (size_t k = 1; k < residual.size(); ++k)
+    if (std::abs(residual[k]) > std::abs(residual[worst])) worst = k;
+  if (residual.empty()) return;
+  n->worst_edge_cycle = edges[worst];
+  n->worst_edge_us = residual[worst] / t.f_cpu_hz * kMicrosPerSecond;
+  std::ostringstream others;
+  for (size_t m = 0; m < t.motor.size(); ++m) {
+    if (m == motor) continue;
+    for (const tr::Step &s : t.motor[m].steps) {
+      if (s.rise_cycle + kNeighbourCycles < edges[worst] || s.rise_cycle > edges[worst] + 100) continue;
+      others << (others.tellp() > 0 ? ", " : "") << "m" << m << " " << std::showpos
+             << (int64_t(s.rise_cycle) - int64_t(edges[worst])) << std::noshowpos;
+    }
+  }
+  n->worst_edge_others = others.str();
+}
+
 // Measures every (round, motor) window of the trace against its note.
 std::vector<NoteResult> measure_notes(const tr::Trace &t, const Plan &plan) {
   std::vector<NoteResult> out;
@@ -464,6 +497,7 @@ std::vector<NoteResult> measure_notes(const tr::Trace &t, const Plan &plan) {
         n.cents = stepchoir::cents(fit.measured_hz, n.target_hz);
         n.jitter_p99_us = fit.residual_p99_us;
         n.jitter_max_us = fit.residual_max_us;
+        note_worst_edge(t, m, tr::rise_cycles_in_window(steps, from, to), period_q8 / 256.0, &n);
         n.min_pulse_us = *tr::min_pulse_width_cycles(window) / t.f_cpu_hz * kMicrosPerSecond;
       }
       out.push_back(n);
@@ -652,6 +686,31 @@ std::string table_markdown(const PassResult &r) {
   return o.str();
 }
 
+// The pass's worst edges, one per note (those played as scheduled), furthest off first.
+std::string worst_edges_markdown(const PassResult &r) {
+  if (!r.failure.empty()) return "";
+  std::vector<const NoteResult *> notes;
+  for (const NoteResult &n : r.notes)
+    if (played_as_scheduled(n)) notes.push_back(&n);
+  std::stable_sort(notes.begin(), notes.end(), [](const NoteResult *a, const NoteResult *b) {
+    return std::abs(a->worst_edge_us) > std::abs(b->worst_edge_us);
+  });
+  if (notes.size() > kWorstEdgesListed) notes.resize(kWorstEdgesListed);
+  std::ostringstream o;
+  o << "### Worst edges, " << traffic_title(r.traffic) << "\n\n";
+  o << "Each note's edge furthest off its grid (+ late), the " << notes.size()
+    << " furthest, with the other motors' edges from " << kNeighbourCycles
+    << " cycles before it (cycles from it). Trace one with `STEPCHOIR_VBOARD_PCTRACE_WATCH` "
+       "(docs/ARCHITECTURE.md, Debugging aids).\n\n";
+  o << "| board s | cycle | note | motor | off us | other motors' edges |\n|---:|---:|---:|---:|---:|---|\n";
+  for (const NoteResult *n : notes)
+    o << "| " << fixed(static_cast<double>(n->worst_edge_cycle) / r.f_cpu_hz, 6) << " | " << n->worst_edge_cycle
+      << " | " << n->note << " | " << n->motor << " | " << fixed(n->worst_edge_us, 3) << " | " << n->worst_edge_others
+      << " |\n";
+  o << "\n";
+  return o.str();
+}
+
 // Local date and time, ISO 8601.
 std::string now_text() {
   const std::time_t now = std::time(nullptr);
@@ -720,6 +779,8 @@ std::string write_report(const Options &opt, const std::vector<PassResult> &pass
       << step_isr_vector(opt.board_name) << " (timer 1 compare A).\n\n";
   out << "## Summary\n\n";
   for (const PassResult &r : passes) out << summary_markdown(r);
+  out << "## Worst edges\n\n";
+  for (const PassResult &r : passes) out << worst_edges_markdown(r);
   out << "## Per-note results\n\n";
   for (const PassResult &r : passes) out << table_markdown(r);
   return path;

@@ -1,4 +1,4 @@
-# smoke_test.cmake: runs stepchoir-bench-pitch briefly (uno, two notes) and checks it exits 0 and writes a table.
+# smoke_test.cmake: runs stepchoir-bench-pitch briefly (uno, two notes) and checks it exits 0 and writes its tables.
 file(REMOVE_RECURSE ${OUT})
 execute_process(COMMAND ${BENCH} --board uno --notes 60,72 --round-seconds 0.2 --out ${OUT} RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
@@ -12,5 +12,10 @@ file(STRINGS ${report} table_header REGEX "^\\| note \\| name \\|")
 file(STRINGS ${report} table_rows REGEX "^\\| 6[0-9] \\| ")
 if(NOT table_header OR NOT table_rows)
   message(FATAL_ERROR "${report} has no per-note table")
+endif()
+file(STRINGS ${report} worst_header REGEX "^\\| board s \\| cycle \\| note \\| motor \\| off us \\|")
+file(STRINGS ${report} worst_rows REGEX "^\\| [0-9]+\\.[0-9]+ \\| [0-9]+ \\| 6[0-9] \\| ")
+if(NOT worst_header OR NOT worst_rows)
+  message(FATAL_ERROR "${report} has no worst-edges table")
 endif()
 message(STATUS "bench smoke: ${report} has a per-note table")
