@@ -222,7 +222,6 @@ struct PcProfile {
   }
 };
 
-
 // The last 65,536 instructions ("cycle pc I", see STEPCHOIR_VBOARD_PCTRACE), written when the
 // core crashes or, with a watched RAM byte, each time that byte changes.
 struct PcTrace {
@@ -249,6 +248,8 @@ struct PcTrace {
     last = v;
     return changed;
   }
+  // Called from: run_until, when record() said so. Writes PATH.1, PATH.2, ...
+  void dump() { write(path + "." + std::to_string(++dumps)); }
   // Writes the ring to file, oldest first.
   void write(const std::string &file) const {
     if (FILE *f = std::fopen(file.c_str(), "w")) {
@@ -272,8 +273,8 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     CpuProfiler &profiler = *profiler_;
     const uint8_t *const flash = avr->flash;
     InstructionSample s;
-    // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH keeps the last 65536 steps ("cycle pc I")
-    // and writes them to PATH (and RAM to PATH.ram) when the core crashes; with
+    // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH ("%p": the process id) keeps the last 65536
+    // steps ("cycle pc I") and writes them to PATH (and RAM to PATH.ram) when the core crashes; with
     // STEPCHOIR_VBOARD_PCTRACE_WATCH=ADDR also to PATH.1, PATH.2, ... each time the RAM byte at
     // ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
     static PcTrace pc_trace(std::getenv("STEPCHOIR_VBOARD_PCTRACE"));
@@ -283,8 +284,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     // to functions with avr-addr2line or avr-objdump -d.
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     while (avr->cycle < end_cycle && !core_stopped(state)) {
-      if (!pc_trace.path.empty() && pc_trace.record(avr))
-        pc_trace.write(pc_trace.path + "." + std::to_string(++pc_trace.dumps));
+      if (!pc_trace.path.empty() && pc_trace.record(avr)) pc_trace.dump();
       s.pc_before_bytes = avr->pc;
       s.cycle_before = avr->cycle;
       s.i_before = avr->sreg[S_I] != 0;
