@@ -25,7 +25,8 @@ TEST_CASE("vboard: the PC trace is written each time a watched RAM byte changes 
   setenv("STEPCHOIR_VBOARD_PCTRACE_WATCH", "0x2B", 1);
   setenv("STEPCHOIR_VBOARD_PCTRACE_AFTER", "8000000", 1);  // past boot (0.5 s)
   setenv("STEPCHOIR_VBOARD_PCTRACE_MAX", "3", 1);
-  VboardProcess vb({"--board", "uno", "--seconds", "1.2", "--trace", trace_path, "--quiet"});
+  // 3 s: the host connects up to about 1 s in, and the tone must run a while after that.
+  VboardProcess vb({"--board", "uno", "--seconds", "3", "--trace", trace_path, "--quiet"});
   for (const char *v : {"STEPCHOIR_VBOARD_PCTRACE", "STEPCHOIR_VBOARD_PCTRACE_WATCH", "STEPCHOIR_VBOARD_PCTRACE_AFTER",
                         "STEPCHOIR_VBOARD_PCTRACE_MAX"})
     unsetenv(v);
