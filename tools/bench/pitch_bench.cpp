@@ -453,10 +453,10 @@ constexpr uint64_t kNeighbourCycles = 3000;
 void note_worst_edge(const tr::Trace &t, size_t motor, const std::vector<uint64_t> &edges, double period_cycles,
                      NoteResult *n) {
   const std::vector<double> residual = tr::grid_residuals_cycles(edges, period_cycles);
+  if (residual.empty()) return;
   size_t worst = 0;
   for (size_t k = 1; k < residual.size(); ++k)
     if (std::abs(residual[k]) > std::abs(residual[worst])) worst = k;
-  if (residual.empty()) return;
   n->worst_edge_cycle = edges[worst];
   n->worst_edge_us = residual[worst] / t.f_cpu_hz * kMicrosPerSecond;
   std::ostringstream others;
