@@ -283,8 +283,9 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     // PATH becomes the process id); map them
     // to functions with avr-addr2line or avr-objdump -d.
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
+    const bool tracing = !pc_trace.path.empty();  // a register, not a load, every step
     while (avr->cycle < end_cycle && !core_stopped(state)) {
-      if (!pc_trace.path.empty() && pc_trace.record(avr)) pc_trace.dump();
+      if (tracing && pc_trace.record(avr)) pc_trace.dump();
       s.pc_before_bytes = avr->pc;
       s.cycle_before = avr->cycle;
       s.i_before = avr->sreg[S_I] != 0;
@@ -297,7 +298,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
       profiler.on_step(s);
       pc_profile.add(s.pc_before_bytes, s.cycle_after - s.cycle_before);
     }
-    if (!pc_trace.path.empty() && core_stopped(state)) {
+    if (tracing && core_stopped(state)) {
       pc_trace.write(pc_trace.path);
       std::string ram = pc_trace.path + ".ram";
       if (FILE *f = std::fopen(ram.c_str(), "wb")) {
