@@ -459,14 +459,15 @@ void note_worst_edge(const tr::Trace &t, size_t motor, const std::vector<uint64_
     if (std::abs(residual[k]) > std::abs(residual[worst])) worst = k;
   n->worst_edge_cycle = edges[worst];
   n->worst_edge_us = residual[worst] / t.f_cpu_hz * kMicrosPerSecond;
+  const uint64_t edge = edges[worst];
   std::ostringstream others;
   for (size_t m = 0; m < t.motor.size(); ++m) {
     if (m == motor) continue;
-    for (const tr::Step &s : t.motor[m].steps) {
-      if (s.rise_cycle + kNeighbourCycles < edges[worst] || s.rise_cycle > edges[worst] + 100) continue;
+    const auto &steps = t.motor[m].steps;
+    const tr::IndexRange near = tr::steps_in_window(steps, edge > kNeighbourCycles ? edge - kNeighbourCycles : 0, edge + 101);
+    for (size_t i = near.begin; i < near.end; ++i)
       others << (others.tellp() > 0 ? ", " : "") << "m" << m << " " << std::showpos
-             << (int64_t(s.rise_cycle) - int64_t(edges[worst])) << std::noshowpos;
-    }
+             << (int64_t(steps[i].rise_cycle) - int64_t(edge)) << std::noshowpos;
   }
   n->worst_edge_others = others.str();
 }
@@ -489,15 +490,15 @@ std::vector<NoteResult> measure_notes(const tr::Trace &t, const Plan &plan) {
       n.edge_count = range.size();
       if (n.edge_count >= 2) {
         const uint32_t period_q8 = stepchoir::hz_to_period_q8(n.target_hz, static_cast<uint32_t>(t.f_cpu_hz));
-        const tr::PitchFit fit =
-            tr::fit_edges(tr::rise_cycles_in_window(steps, from, to), period_q8 / 256.0, t.f_cpu_hz);
+        const std::vector<uint64_t> edges = tr::rise_cycles_in_window(steps, from, to);
+        const tr::PitchFit fit = tr::fit_edges(edges, period_q8 / 256.0, t.f_cpu_hz);
         const std::vector<tr::Step> window(steps.begin() + range.begin, steps.begin() + range.end);
         n.measured = true;
         n.measured_hz = fit.measured_hz;
         n.cents = stepchoir::cents(fit.measured_hz, n.target_hz);
         n.jitter_p99_us = fit.residual_p99_us;
         n.jitter_max_us = fit.residual_max_us;
-        note_worst_edge(t, m, tr::rise_cycles_in_window(steps, from, to), period_q8 / 256.0, &n);
+        note_worst_edge(t, m, edges, period_q8 / 256.0, &n);
         n.min_pulse_us = *tr::min_pulse_width_cycles(window) / t.f_cpu_hz * kMicrosPerSecond;
       }
       out.push_back(n);
