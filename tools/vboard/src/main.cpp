@@ -39,7 +39,7 @@ constexpr int64_t kAheadBeforeSleepNs = 200 * 1000;
 // A real board never falls behind; the machine running this one does: this VM pauses a
 // spinning process for up to 10 ms several times in 10 s (2026-11-23). With a 5 ms budget
 // each such pause was partly given up: 10-35 ms of a 5 s song, so the board's clock ran
-// 2,000-7,000 ppm slow against the wall, the host's clock fit (auto-tune) tuned to that, and the
+// 2,800-7,300 ppm slow against the wall, the host's clock fit (auto-tune) tuned to that, and the
 // crystal tests failed five runs in five. 50 ms absorbs those pauses: the board's clock keeps
 // the wall's rate; the worst lag is still reported (pacing_lag_max_us).
 constexpr uint64_t kMaxCatchupNs = 50 * 1000 * 1000;

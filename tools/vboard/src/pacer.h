@@ -8,7 +8,7 @@ namespace vboard {
 
 // The board runs cycles_per_second (16 MHz, adjusted by the crystal's ppm error) of real time.
 // When the simulation is ahead of the wall clock the caller sleeps; when it falls behind by more
-// than max_catchup_ns, the pacer gives up the excess (no long fast-forward burst) and records it.
+// than max_catchup_ns, the pacer gives up the excess (the fast-forward stays bounded) and records it.
 class Pacer {
  public:
   // f_cpu_hz nominal clock; clock_ppm crystal error (+ = fast); max_catchup_ns burst limit.
