@@ -225,6 +225,7 @@ struct PcProfile {
 // The last 65,536 instructions ("cycle pc I", see STEPCHOIR_VBOARD_PCTRACE), written when the
 // core crashes or, with a watched RAM byte, each time that byte changes.
 struct PcTrace {
+  static constexpr size_t kSteps = 65536;  // a power of two: the ring index is masked
   std::string path;
   std::vector<std::array<uint32_t, 3>> ring;
   size_t next = 0;
@@ -233,7 +234,7 @@ struct PcTrace {
   int max_dumps = 20, dumps = 0;
   int last = -1;           // the watched byte's value at the previous step
   // Called from: run_until, once. Null path: records nothing.
-  explicit PcTrace(const char *p) : path(p ? with_pid(p) : ""), ring(p ? 65536 : 0) {
+  explicit PcTrace(const char *p) : path(p ? with_pid(p) : ""), ring(p ? kSteps : 0) {
     if (!p) return;
     if (const char *w = std::getenv("STEPCHOIR_VBOARD_PCTRACE_WATCH")) watch = std::strtol(w, nullptr, 0);
     if (const char *a = std::getenv("STEPCHOIR_VBOARD_PCTRACE_AFTER")) after = std::strtoull(a, nullptr, 0);
@@ -241,7 +242,7 @@ struct PcTrace {
   }
   // Called from: run_until, every step. True when the watched byte changed: dump now.
   bool record(const avr_t *avr) {
-    ring[next++ & 65535] = {static_cast<uint32_t>(avr->cycle), avr->pc, avr->sreg[S_I]};
+    ring[next++ & (kSteps - 1)] = {static_cast<uint32_t>(avr->cycle), avr->pc, avr->sreg[S_I]};
     if (watch < 0 || watch > avr->ramend || dumps >= max_dumps) return false;
     const int v = avr->data[watch];
     const bool changed = last >= 0 && v != last && avr->cycle >= after;
@@ -253,8 +254,8 @@ struct PcTrace {
   // Writes the ring to file, oldest first.
   void write(const std::string &file) const {
     if (FILE *f = std::fopen(file.c_str(), "w")) {
-      for (size_t i = 0; i < 65536; ++i) {
-        const auto &e = ring[(next + i) & 65535];
+      for (size_t i = 0; i < kSteps; ++i) {
+        const auto &e = ring[(next + i) & (kSteps - 1)];
         std::fprintf(f, "%u %x %u\n", e[0], e[1], e[2]);
       }
       std::fclose(f);

@@ -36,12 +36,9 @@ constexpr uint64_t kChunkUs = 20;
 // The simulation may run this far ahead of the wall clock before it sleeps.
 constexpr int64_t kAheadBeforeSleepNs = 200 * 1000;
 // When behind, at most this much is caught up in a burst; the rest is given up and reported.
-// A real board never falls behind; the machine running this one does: this VM pauses a
-// spinning process for up to 10 ms several times in 10 s (2026-11-23). With a 5 ms budget
-// each such pause was partly given up: 10-35 ms of a 5 s song, so the board's clock ran
-// 2,800-7,300 ppm slow against the wall, the host's clock fit (auto-tune) tuned to that, and the
-// crystal tests failed five runs in five. 50 ms absorbs those pauses: the board's clock keeps
-// the wall's rate; the worst lag is still reported (pacing_lag_max_us).
+// 50 ms absorbs the pauses of the machine running the board, so its clock keeps the wall's
+// rate (why, with figures: docs/ARCHITECTURE.md, "Virtual board"); the worst lag is still
+// reported (pacing_lag_max_us).
 constexpr uint64_t kMaxCatchupNs = 50 * 1000 * 1000;
 // The trace is written out at least this often (wall time).
 constexpr uint64_t kTraceFlushNs = 250 * 1000 * 1000;
