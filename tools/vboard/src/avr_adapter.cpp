@@ -274,10 +274,10 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     CpuProfiler &profiler = *profiler_;
     const uint8_t *const flash = avr->flash;
     InstructionSample s;
-    // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH ("%p": the process id) keeps the last 65536
-    // steps ("cycle pc I") and writes them to PATH (and RAM to PATH.ram) when the core crashes; with
-    // STEPCHOIR_VBOARD_PCTRACE_WATCH=ADDR also to PATH.1, PATH.2, ... each time the RAM byte at
-    // ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
+    // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH ("%p": the process id) keeps the last
+    // PcTrace::kSteps steps ("cycle pc I") and writes them to PATH (and RAM to PATH.ram) when
+    // the core crashes; with STEPCHOIR_VBOARD_PCTRACE_WATCH=ADDR also to PATH.1, PATH.2, ...
+    // each time the RAM byte at ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
     static PcTrace pc_trace(std::getenv("STEPCHOIR_VBOARD_PCTRACE"));
     // Debugging aid: STEPCHOIR_VBOARD_PCPROFILE=PATH counts the cycles spent at each flash
     // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit ("%p" in
