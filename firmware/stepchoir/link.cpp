@@ -116,8 +116,6 @@ void begin() {
 
 uint8_t rx_head() { return g_rx_head; }
 
-bool sending() { return UCSR0B & _BV(UDRIE0); }
-
 }  // namespace link
 
 namespace hal {

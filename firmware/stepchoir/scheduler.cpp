@@ -779,6 +779,7 @@ ISR(TIMER1_COMPA_vect) {
   }
   TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
   sei();
+  uint8_t tx = link::hold_tx();  // a reply waits for the return (link.h)
   const uint16_t entered = TCNT1;
   const uint8_t rx_entered = link::rx_head();
   for (;;) {
@@ -814,12 +815,12 @@ ISR(TIMER1_COMPA_vect) {
       // bookkeeping comes first whenever it fits: its own next edge may follow soon. A live
       // command waits for close edges only kCmdWaitTicks into the invocation (with every motor
       // high an edge is always close); a due entry has until it is urgent (above).
-      // While UART bytes come or go, their ISRs (up to 30 % of the CPU each way) stretch the
+      // While UART bytes come in, the receive ISR (up to 30 % of the CPU) stretches the
       // bookkeeping and the burst's plan: it starts only further from the head (the UART state
-      // is read only when a played motor waits).
+      // is read only when a played motor waits; the transmit ISR is held off, see hold_tx).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
       const uint16_t wait_within = overdue || urgent ? 0
-                                   : g_played_count    ? (link::sending() || link::rx_head() != rx_entered
+                                   : g_played_count    ? (link::rx_head() != rx_entered
                                                               ? cfg::kBookkeepBusyTicks
                                                               : cfg::kBookkeepTicks)
                                    : g_cmd_mask        ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
@@ -838,6 +839,7 @@ ISR(TIMER1_COMPA_vect) {
       take_one(entry);
     } else {
       const uint16_t own = own_ticks((uint16_t)(TCNT1 - entered), rx_entered);  // before cli: it takes a while
+      link::release_tx(tx);  // before the cli: after it, it lengthened the ISR's longest interrupts-off stretch
       cli();
       if (overdue) {
         g_armed = now_locked() + cfg::kMainSliceTicks;
@@ -845,6 +847,7 @@ ISR(TIMER1_COMPA_vect) {
         TIFR1 = _BV(OCF1A);
       } else if (!arm()) {
         sei();
+        tx = link::hold_tx();
         continue;
       }
       TIMSK1 |= _BV(OCIE1A);
