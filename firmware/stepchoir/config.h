@@ -69,7 +69,7 @@ static const uint8_t kCliLeadTicks = 112;
 // the first to the last at most this long (ticks); a longer run lets waiting interrupts in
 // between two raises (its ISR takes up to 54 cycles, so that edge may then be late). With
 // kCliLeadTicks before the first: 88 kept them off 247 cycles on the Mega, 72 keeps the step
-// ISR's entry (236 / 242) the longest (tools/bench/run-bench.sh, also at full line speed).
+// ISR's entry and return (236-243) the longest (tools/bench/run-bench.sh, also at full line speed).
 static const uint8_t kMaxOffTicks = 72;
 
 // Planned spacing of two STEP writes in a burst (ticks): the raise loop's pass from one write to

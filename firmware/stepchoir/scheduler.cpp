@@ -760,10 +760,11 @@ void silence_all() {
 // motor first, as its own next edge may follow soon. It returns when nothing is left to do and
 // the next edge is far enough to come back for it.
 // Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most 236 cycles (uno) / 242 (mega), at its entry before the sei below, also
+// interrupts off at most 237 cycles (uno) / 243 (mega), from the last cli below before it
+// returns (236 / 242 at its entry before it held the transmitter off), also
 // with frames back to back at full line speed (a burst's runs stay under that: kCliLeadTicks +
 // kMaxOffTicks + a raise); one invocation up to 18,673 cycles (uno) / 15,189 (mega) with
-// interrupts on, while four or five motors play; CPU load 40 % (uno) / 49 % (mega) with every
+// interrupts on, while four or five motors play (25,500 at full line speed); CPU load 40 % (uno) / 50 % (mega) with every
 // motor sounding, much of it waiting for edges with interrupts on (kEarlyTicks).
 ISR(TIMER1_COMPA_vect) {
   using namespace sched;
