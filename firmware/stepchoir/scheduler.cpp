@@ -818,10 +818,11 @@ ISR(TIMER1_COMPA_vect) {
       // high an edge is always close); a due entry has until it is urgent (above).
       // While UART bytes come in, the receive ISR (up to 30 % of the CPU) stretches the
       // bookkeeping and the burst's plan: it starts only further from the head (the UART state
-      // is read only when a played motor waits; the transmit ISR is held off, see hold_tx).
+      // is read only when a played motor waits; a full ring counts as bytes coming in, see
+      // rx_full; the transmit ISR is held off, see hold_tx).
       const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
       const uint16_t wait_within = overdue || urgent ? 0
-                                   : g_played_count    ? (link::rx_head() != rx_entered
+                                   : g_played_count    ? (link::rx_head() != rx_entered || link::rx_full()
                                                               ? cfg::kBookkeepBusyTicks
                                                               : cfg::kBookkeepTicks)
                                    : g_cmd_mask        ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)

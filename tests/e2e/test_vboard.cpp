@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -22,7 +23,10 @@ TEST_CASE("vboard: the PC trace is written each time a watched RAM byte changes 
   // not known in advance; the first dumps are the boot's DIR settings.)
   const int kDumps = 12;
   const std::string base = e2e::scratch("pctrace-watch");
-  for (int i = 1; i <= kDumps + 1; ++i) std::remove((base + "." + std::to_string(i)).c_str());
+  for (int i = 1; i <= kDumps + 1; ++i) {
+    std::remove((base + "." + std::to_string(i)).c_str());
+    std::remove((base + "." + std::to_string(i) + ".ram").c_str());
+  }
   const std::string trace_path = e2e::scratch("pctrace-watch.csv");
   setenv("STEPCHOIR_VBOARD_PCTRACE", base.c_str(), 1);
   setenv("STEPCHOIR_VBOARD_PCTRACE_WATCH", "0x2B", 1);
@@ -51,6 +55,7 @@ TEST_CASE("vboard: the PC trace is written each time a watched RAM byte changes 
     return false;
   };
   int after_step = 0;
+  int last_portd = -1;
   for (int i = 1; i <= kDumps; ++i) {
     INFO("dump " << i);
     std::ifstream in(base + "." + std::to_string(i));
@@ -62,6 +67,15 @@ TEST_CASE("vboard: the PC trace is written each time a watched RAM byte changes 
     REQUIRE(!cycles.empty());
     CHECK(just_after(cycles.back(), changes));
     after_step += just_after(cycles.back(), step_rises);
+    // The RAM right after the change (PATH.N.ram, the ATmega328P's 2,304-byte data space):
+    // every change is dumped, so PORTD differs from the dump before.
+    std::ifstream ram(base + "." + std::to_string(i) + ".ram", std::ios::binary);
+    REQUIRE(ram);
+    const std::vector<char> data((std::istreambuf_iterator<char>(ram)), std::istreambuf_iterator<char>());
+    REQUIRE(data.size() == 2304);
+    const int portd = static_cast<unsigned char>(data[0x2B]);
+    CHECK(portd != last_portd);
+    last_portd = portd;
   }
   CHECK(after_step > 0);  // not only the boot's DIR settings: STEP edges too
   std::ifstream past_max(base + "." + std::to_string(kDumps + 1));

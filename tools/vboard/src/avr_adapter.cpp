@@ -249,8 +249,20 @@ struct PcTrace {
     last = v;
     return changed;
   }
-  // Called from: run_until, when record() said so. Writes PATH.1, PATH.2, ...
-  void dump() { write(path + "." + std::to_string(++dumps)); }
+  // Called from: run_until, when record() said so. Writes PATH.1, PATH.2, ... and the RAM as it
+  // is right after the change to PATH.1.ram, PATH.2.ram, ...
+  void dump(const avr_t *avr) {
+    const std::string file = path + "." + std::to_string(++dumps);
+    write(file);
+    write_ram(file + ".ram", avr);
+  }
+  // Writes the data space (registers, I/O, RAM: ramend + 1 bytes) to file.
+  static void write_ram(const std::string &file, const avr_t *avr) {
+    if (FILE *f = std::fopen(file.c_str(), "wb")) {
+      std::fwrite(avr->data, 1, avr->ramend + 1, f);
+      std::fclose(f);
+    }
+  }
   // Writes the ring to file, oldest first.
   void write(const std::string &file) const {
     if (FILE *f = std::fopen(file.c_str(), "w")) {
@@ -277,7 +289,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     // Debugging aid: STEPCHOIR_VBOARD_PCTRACE=PATH ("%p": the process id) keeps the last
     // PcTrace::kSteps steps ("cycle pc I") and writes them to PATH (and RAM to PATH.ram) when
     // the core crashes; with STEPCHOIR_VBOARD_PCTRACE_WATCH=ADDR also to PATH.1, PATH.2, ...
-    // each time the RAM byte at ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
+    // (RAM to PATH.1.ram, ...) each time the RAM byte at ADDR changes (see docs/ARCHITECTURE.md, "Debugging aids").
     static PcTrace pc_trace(std::getenv("STEPCHOIR_VBOARD_PCTRACE"));
     // Debugging aid: STEPCHOIR_VBOARD_PCPROFILE=PATH counts the cycles spent at each flash
     // address and writes "address cycles" lines (hex, nonzero only) to PATH at exit ("%p" in
@@ -286,7 +298,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     const bool tracing = !pc_trace.path.empty();  // a register, not a load, every step
     while (avr->cycle < end_cycle && !core_stopped(state)) {
-      if (tracing && pc_trace.record(avr)) pc_trace.dump();
+      if (tracing && pc_trace.record(avr)) pc_trace.dump(avr);
       s.pc_before_bytes = avr->pc;
       s.cycle_before = avr->cycle;
       s.i_before = avr->sreg[S_I] != 0;
@@ -301,11 +313,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     }
     if (tracing && core_stopped(state)) {
       pc_trace.write(pc_trace.path);
-      std::string ram = pc_trace.path + ".ram";
-      if (FILE *f = std::fopen(ram.c_str(), "wb")) {
-        std::fwrite(avr->data, 1, avr->ramend + 1, f);
-        std::fclose(f);
-      }
+      PcTrace::write_ram(pc_trace.path + ".ram", avr);
     }
   }
   if (state == cpu_Done) return CoreState::kDone;
