@@ -114,8 +114,9 @@ static const uint16_t kCmdWaitTicks = 4000;
 // benchmark within 1.8 us, but left the Mega's five motors no gap for it (edges 45-107 us
 // late); so did 1200 with less room when a played motor's own edge was near (800).
 static const uint16_t kBookkeepTicks = 1000;
-// ... while the UART sends a reply or bytes came in during this step ISR invocation: their ISRs
-// stretch it (traced: 450-500 of 1,500 cycles in UART ISRs, the next edge over 5 us late).
+// ... while bytes come in (the receive ring's head moved during this step ISR invocation, or
+// the ring is full: link::rx_full); the receive ISR stretches it (the transmit ISR is held off
+// while the step ISR runs) (traced: 450-500 of 1,500 cycles in UART ISRs, the next edge over 5 us late).
 // Always this long, bookkeeping starved (three motors whose edges came 1,600 ticks apart in
 // turn left a fourth's no room: one edge 36 us late).
 static const uint16_t kBookkeepBusyTicks = 1400;

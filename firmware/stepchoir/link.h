@@ -46,7 +46,7 @@ uint8_t rx_head();
 // (and counted, up to 255), so the head stands still although the receive ISR runs for each.
 // Traced at full line speed on the Mega: the step ISR saw an unmoved head, took the quiet
 // line's bookkeeping margin, and the bookkeeping, stretched by the receive ISRs, made the
-// next edge 15 us late.
+// next edge late.
 __attribute__((always_inline)) inline bool rx_full() {
   return (uint8_t)((detail::g_rx_head + 1) & (cfg::kRxRingBytes - 1)) == detail::g_rx_tail;
 }
@@ -54,7 +54,8 @@ __attribute__((always_inline)) inline bool rx_full() {
 // Called from: step ISR, interrupts on, right after its entry (before the sei, this added 9
 // cycles to its longest interrupts-off stretch). Holds the transmit ISR off while the step ISR
 // runs; returns whether it was on, for release_tx. A reply then goes out between step ISR
-// invocations only, up to an invocation later (the longest: about 1.2 ms, bench/results):
+// invocations only, up to an invocation later (the longest in the pitch benchmark: 1.2 ms
+// with light traffic, 1.6 ms at full line speed):
 // with a reply going out and frames coming in at full line speed, the two UART ISRs took 61 %
 // of the CPU in the step ISR's way from one edge to the next (traced), and edges came 30-50 us
 // late. Receiving cannot wait (the UART holds two bytes); a reply can. A transmit ISR between
