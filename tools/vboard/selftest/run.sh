@@ -16,7 +16,9 @@ start=1600
 
 avr-gcc -mmcu=atmega328p -DF_CPU=16000000UL -Os -Wall -Wextra -o "$elf" "$here/selftest.c"
 
-"$vboard" --board uno --elf "$elf" --seconds 1 --trace "$trace" --travel-steps $travel \
+# 3 s of board time: with 1 s, a fresh-clone CI run's sanitizer pass (2 cores, tests in
+# parallel) started the echo client after the board had finished and its pty was gone.
+"$vboard" --board uno --elf "$elf" --seconds 3 --trace "$trace" --travel-steps $travel \
   --start-position $start --chatter-us 300 --link "$work/tty" >"$out" 2>"$err" &
 pid=$!
 # Stops the board if the script exits early.
