@@ -66,8 +66,9 @@ void set_motion(uint8_t m, const Motion &motion);
 void main_loop_alive();
 
 // Called from: main loop, every pass. Defence in depth: if the step ISR's compare is long
-// overdue (never seen on a chip; simavr has been seen to miss one armed close ahead), arms it
-// again at once instead of waiting for the 16-bit timer to come round (4 ms).
+// overdue (a compare armed closer than arm()'s own write-then-clear sequence is erased by the
+// clear: cfg::kMinLeadTicks), arms it again at once instead of waiting for the 16-bit timer to
+// come round (4 ms).
 void rescue_missed_compare();
 
 // Called from: main loop. Silences every motor at once.
