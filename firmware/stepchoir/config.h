@@ -122,15 +122,16 @@ static const uint16_t kBookkeepTicks = 1000;
 static const uint16_t kBookkeepBusyTicks = 1400;
 
 // How far ahead, at the least, the step ISR arms its compare (ticks). arm() reads the time,
-// works out the target (about 75 cycles from the timer read, Uno) and clears OCF1A after writing
-// OCR1A, to drop a match of the previous value: a compare due before that clear is erased, and
-// comes a timer wrap (4 ms) later unless the main loop's rescue (kRescueTicks) catches it. With
-// 48 here compares were lost; with 100, notes started on a silent motor without a miss, but
-// with motors playing edges slipped by about kRescueTicks (`test_e2e "link: * decodes every
-// frame*"`: residual p99 104-136 us against 25); 200 is reliable. The virtual board itself
-// fires a compare armed 16 ticks or more ahead by that write-then-clear sequence every time, on
-// its tick (`ctest -R vboard_compare_lead`, 2026-12-01): the losses are the sequence's, not
-// simavr's.
+// works out the target (about 70 cycles from the timer read to the clear on the Uno, by its
+// disassembly) and clears OCF1A after writing OCR1A, to drop a match of the previous value: a
+// compare due before that clear is erased, and comes a timer wrap (4 ms) later unless the main
+// loop's rescue (kRescueTicks) catches it. Measured with this firmware: with 48 here compares
+// were lost; with 100, notes started on a silent motor without a miss, but with motors playing
+// edges slipped (`test_e2e "link: * decodes every frame*"`: residual p99 104-136 us against 25,
+// about kRescueTicks); 200 is reliable. The virtual board itself fires a compare armed 16 ticks
+// or more ahead by a write-then-clear sequence every time, on its tick (`ctest -R
+// vboard_compare_lead`, 2026-12-01): a lead has to cover the firmware's own sequence, not a
+// simavr defect (which of the firmware's paths lost the compares at 100 was not traced).
 static const uint8_t kMinLeadTicks = 200;
 
 // How soon after the main loop posts a command the step ISR comes for it (ticks), when it is
