@@ -5,8 +5,8 @@
 // as a mark, arms OCR1A `lead` ticks after the read and waits up to 3,000 ticks:
 // - the compare ISR raises X STEP (PD2) as its first instruction; main lowers it again;
 // - no compare by then: X DIR (PD5) toggles (a miss).
-// Two orders of the arming, 64 trials for each lead, each order's leads in kLeads order, a pause
-// of 20,000 ticks after each lead's trials and Z DIR (PD7) toggled between the orders:
+// Two orders of the arming, 64 trials for each lead, each order's leads in kLeads order, and Z
+// DIR (PD7) toggled after each order:
 // - order 0, "write then clear": OCR1A = t + lead, then TIFR1 = OCF1A (as the firmware's arm()
 //   does, to drop a match of the previous OCR1A value);
 // - order 1, "clear then write": TIFR1 = OCF1A, then OCR1A = t + lead.
@@ -70,12 +70,9 @@ int main(void) {
   TCCR1B = _BV(CS10);
   TIMSK1 = _BV(OCIE1A);
   sei();
-  pause(20000);
   for (uint8_t order = 0; order < 2; ++order) {
-    for (uint8_t k = 0; k < sizeof kLeads; ++k) {
+    for (uint8_t k = 0; k < sizeof kLeads; ++k)
       for (uint8_t i = 0; i < TRIALS; ++i) trial(kLeads[k], order);
-      pause(20000);
-    }
     PIND = _BV(PD7);
   }
   for (;;) {
