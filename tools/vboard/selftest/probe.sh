@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# probe.sh NAME SECONDS VBOARD WORK_DIR: builds the tiny AVR program NAME.c, runs it on the virtual
+# board (uno, no pacing) for SECONDS of board time and checks its trace with check_NAME.py.
+# NAME: compare_lead (how far ahead a Timer1 compare must be armed to fire, and that it fires on
+# its tick) or timer_quirks (a TIFR write clears every set flag of the timer; a waiting interrupt
+# is taken only two instructions after sei).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+out=$4/${1//_/-}
+mkdir -p "$4"
+avr-gcc -mmcu=atmega328p -DF_CPU=16000000UL -Os -Wall -Wextra -o "$out.elf" "$here/$1.c"
+"$3" --board uno --elf "$out.elf" --no-pacing --seconds "$2" --trace "$out.csv" --quiet
+python3 "$here/check_$1.py" "$out.csv"
