@@ -179,7 +179,8 @@ __attribute__((always_inline)) inline void raise_at(uint16_t t, volatile uint8_t
 //   before a run's first raise until its last;
 // - a raise less than kBreatherTicks after the one before (but not in its run) stays in the
 //   loop: waiting interrupts are let in (sei, nop, cli) right after the raise before, then
-//   they are off until this one;
+//   they are off until this one (a real AVR lets one in there; the virtual board none: it takes
+//   a waiting interrupt two instructions after sei, `ctest -R vboard_timer_quirks`);
 // - further apart, interrupts are on between runs, and pulses that have passed are lowered.
 // Before the plan, a pass of the raise loop (loading the next motor, deciding its wait) took
 // 90-130 cycles: an edge due that soon after another motor's raise came late.
