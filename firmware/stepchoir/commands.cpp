@@ -61,7 +61,7 @@ uint8_t Commands::handle_periods(const uint8_t *p, uint8_t len) {
 }
 
 // kMsgAt: u32 board time, then entries; queued in arrival order (the host sends in time order)
-// for the step ISR, which makes each one exactly on its time.
+// for the motors' channels, each one made exactly on its time.
 uint8_t Commands::handle_at(const uint8_t *p, uint8_t len) {
   if (len < 4 + kSetPeriodBytes || (len - 4) % kSetPeriodBytes != 0) return kErrLength;
   const uint32_t at = get_u32(p);
@@ -173,7 +173,7 @@ void Commands::poll() {
     seen_overruns_ = overruns;
     if (overruns) fault(kErrUartOverrun);
   }
-  // Timestamped entries the step ISR took after their time (it made them at once): the host
+  // Timestamped entries taken after their time (made at once): the host
   // counts these replies, its lead was too short.
   uint8_t motor;
   const uint8_t late = hal::late_entries(&motor);

@@ -27,13 +27,14 @@ uint32_t now_ticks();
 // the phase of a sounding motor. The caller has checked the range.
 void set_period(uint8_t m, uint32_t period_q8);
 
-// The queue of timestamped entries (kMsgAt), cfg::kQueueSize of them, emptied by the step
-// ISR: motor m takes period_q8 exactly at board time at_ticks (a silent motor's first edge
+// The queue of timestamped entries (kMsgAt), cfg::kQueueSize of them, emptied by the main loop
+// (sched::poll, cfg::kTakeTicks before each entry's time): motor m takes period_q8 exactly at
+// board time at_ticks (a silent motor's first edge
 // falls on it, a sounding one strikes on it). Entries must come in time order; queue_at only
 // when queue_used() < cfg::kQueueSize. stop_all() empties it.
 uint8_t queue_used();
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
-// Entries the step ISR took after their time (made at once), counted from power-up (wrapping),
+// Entries taken after their time (made at once), counted from power-up (wrapping),
 // and the last one's motor.
 uint8_t late_entries(uint8_t *motor);
 

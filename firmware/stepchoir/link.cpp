@@ -16,10 +16,6 @@
 #define SC_UART_UDRE_VECT USART_UDRE_vect
 #endif
 
-// Entry and exit of the two assembly ISRs below: they use r24, r25, r30, r31 and the flags.
-#define SC_ISR_SAVE "push r24\n\tin r24, __SREG__\n\tpush r24\n\tpush r25\n\tpush r30\n\tpush r31\n\t"
-#define SC_ISR_RESTORE "pop r31\n\tpop r30\n\tpop r25\n\tpop r24\n\tout __SREG__, r24\n\tpop r24\n\treti\n\t"
-
 using link::detail::g_rx;
 using link::detail::g_rx_head;
 using link::detail::g_rx_tail;
@@ -39,70 +35,103 @@ const uint8_t kRxMask = cfg::kRxRingBytes - 1;
 const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 }  // namespace
 
-// UART receive ISR. Who: a byte arrived (every 10 us at most). Written in assembly because it
-// runs up to 100,000 times a second and nests inside the step ISR's waits: the virtual board
-// measures at most 53 cycles (Uno) / 54 (Mega), interrupt entry to RETI, about 49 on average
-// (build/e2e/*.csv, "isr=" summary lines). Stores the byte in the
-// ring, or counts it lost (saturating) when the ring is full or the UART flagged an error.
+// UART receive ISR. Who: a byte arrived (every 10 us at most). Assembly, and interrupts on
+// after its first 26 cycles (entry included): a STEP edge due meanwhile waits at most that
+// long. With interrupts off it reads the byte and reserves its slot in the ring (the ring's
+// order is the bytes' order even when a later byte's ISR nests in this one; the main loop,
+// the only reader, runs only when no ISR does); then it stores the byte, or a frame delimiter
+// for a byte the UART flagged (a framing error, or bytes lost before it: the frame it was in
+// fails and the decoder resyncs), and counts the loss. A ring the main loop let fill up laps:
+// its bytes are lost, counted once.
 ISR(SC_UART_RX_VECT, ISR_NAKED) {
   __asm__ __volatile__(
-      SC_ISR_SAVE
-      "lds r25, %[ucsra]\n\t"
+      "push r30\n\t"
+      "in r30, __SREG__\n\t"
+      "push r30\n\t"
+      "push r31\n\t"
+      "push r24\n\t"
+      "lds r31, %[ucsra]\n\t"
       "lds r24, %[udr]\n\t"
-      "andi r25, %[errbits]\n\t"
-      "brne 2f\n\t"
       "lds r30, %[head]\n\t"
-      "mov r25, r30\n\t"
-      "inc r25\n\t"
-      "andi r25, %[mask]\n\t"
+      "inc r30\n\t"
+      "andi r30, %[mask]\n\t"
+      "sts %[head], r30\n\t"
+      "sei\n\t"
+      "andi r31, %[errbits]\n\t"
+      "breq 1f\n\t"
+      "clr r24\n\t"  // a flagged byte: a delimiter in its place
+      "rjmp 2f\n\t"
+      "1:\n\t"
       "lds r31, %[tail]\n\t"
-      "cp r25, r31\n\t"
-      "breq 2f\n\t"
+      "cp r30, r31\n\t"
+      "brne 3f\n\t"
+      "2:\n\t"
+      "lds r31, %[errors]\n\t"
+      "inc r31\n\t"
+      "breq 3f\n\t"
+      "sts %[errors], r31\n\t"
+      "3:\n\t"
+      "dec r30\n\t"
+      "andi r30, %[mask]\n\t"
       "ldi r31, 0\n\t"
       "subi r30, lo8(-(%[buf]))\n\t"
       "sbci r31, hi8(-(%[buf]))\n\t"
       "st Z, r24\n\t"
-      "sts %[head], r25\n\t"
-      "rjmp 3f\n\t"
-      "2:\n\t"
-      "lds r24, %[errors]\n\t"
-      "inc r24\n\t"
-      "breq 3f\n\t"
-      "sts %[errors], r24\n\t"
-      "3:\n\t"
-      SC_ISR_RESTORE ::[ucsra] "i"(_SFR_MEM_ADDR(UCSR0A)),
+      "pop r24\n\t"
+      "pop r31\n\t"
+      "pop r30\n\t"
+      "out __SREG__, r30\n\t"
+      "pop r30\n\t"
+      "reti\n\t" ::[ucsra] "i"(_SFR_MEM_ADDR(UCSR0A)),
       [udr] "i"(_SFR_MEM_ADDR(UDR0)), [errbits] "M"(_BV(DOR0) | _BV(FE0)), [head] "i"(&g_rx_head),
       [tail] "i"(&g_rx_tail), [buf] "i"(g_rx), [mask] "M"(kRxMask), [errors] "i"(&g_rx_errors));
 }
 
 // UART data-register-empty ISR. Who: the transmitter wants a byte (every 10 us while a reply
-// goes out). In assembly for the same reason as the receive ISR: measured at most 60 cycles, about
-// 46 on average.
+// goes out). Assembly: it turns its own interrupt off and interrupts on after 17 cycles
+// (entry included), sends the next byte, and turns its interrupt back on while bytes remain.
 ISR(SC_UART_UDRE_VECT, ISR_NAKED) {
   __asm__ __volatile__(
-      SC_ISR_SAVE
+      "push r24\n\t"
+      "in r24, __SREG__\n\t"
+      "push r24\n\t"
+      "lds r24, %[ucsrb]\n\t"
+      "andi r24, %[noudrie]\n\t"
+      "sts %[ucsrb], r24\n\t"
+      "sei\n\t"
+      "push r25\n\t"
+      "push r30\n\t"
+      "push r31\n\t"
       "lds r30, %[tail]\n\t"
       "lds r25, %[head]\n\t"
       "cp r30, r25\n\t"
       "breq 1f\n\t"
       "mov r25, r30\n\t"
+      "inc r25\n\t"
+      "andi r25, %[mask]\n\t"
+      "sts %[tail], r25\n\t"
       "ldi r31, 0\n\t"
       "subi r30, lo8(-(%[buf]))\n\t"
       "sbci r31, hi8(-(%[buf]))\n\t"
       "ld r24, Z\n\t"
       "sts %[udr], r24\n\t"
-      "inc r25\n\t"
-      "andi r25, %[mask]\n\t"
-      "sts %[tail], r25\n\t"
-      "rjmp 2f\n\t"
-      "1:\n\t"
+      "lds r30, %[head]\n\t"
+      "cp r25, r30\n\t"
+      "breq 1f\n\t"
+      "cli\n\t"
       "lds r24, %[ucsrb]\n\t"
-      "andi r24, %[noudrie]\n\t"
+      "ori r24, %[udrie]\n\t"
       "sts %[ucsrb], r24\n\t"
-      "2:\n\t"
-      SC_ISR_RESTORE ::[tail] "i"(&g_tx_tail),
+      "1:\n\t"
+      "pop r31\n\t"
+      "pop r30\n\t"
+      "pop r25\n\t"
+      "pop r24\n\t"
+      "out __SREG__, r24\n\t"
+      "pop r24\n\t"
+      "reti\n\t" ::[tail] "i"(&g_tx_tail),
       [head] "i"(&g_tx_head), [buf] "i"(g_tx), [udr] "i"(_SFR_MEM_ADDR(UDR0)), [mask] "M"(kTxMask),
-      [ucsrb] "i"(_SFR_MEM_ADDR(UCSR0B)), [noudrie] "M"(0xFF & ~_BV(UDRIE0)));
+      [ucsrb] "i"(_SFR_MEM_ADDR(UCSR0B)), [noudrie] "M"(0xFF & ~_BV(UDRIE0)), [udrie] "M"(_BV(UDRIE0)));
 }
 
 namespace link {
@@ -113,8 +142,6 @@ void begin() {
   UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);  // 8 data bits, no parity, 1 stop bit
   UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }
-
-uint8_t rx_head() { return g_rx_head; }
 
 }  // namespace link
 

@@ -34,7 +34,7 @@ inline volatile uint8_t *pin_reg(char port) { return port_reg(port) - 2; }
 inline volatile uint8_t *ddr_reg(char port) { return port_reg(port) - 1; }
 inline uint8_t mask(board::Pin p) { return (uint8_t)(1u << p.bit); }
 
-// Called from: main loop. Read-modify-write with interrupts off: the step ISR writes other
+// Called from: main loop. Read-modify-write with interrupts off: the step ISRs write other
 // bits of the same ports.
 inline void write(board::Pin p, bool high) {
   if (!p.wired()) return;

@@ -1,9 +1,10 @@
-// scheduler.cpp: the step ISR and the motor table it works on (AVR only).
+// scheduler.cpp: one timer compare channel per motor, and the motor table (AVR only).
 #include "scheduler.h"
 
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <util/atomic.h>
+#include <util/delay.h>
 
 #include "boards/board.h"
 #include "config.h"
@@ -16,6 +17,8 @@
 namespace sched {
 namespace {
 
+const uint8_t kMotors = board::active::kMotorCount;
+
 // Motor flags.
 const uint8_t kUp = 0x01;          // DIR pin high: position counts up
 const uint8_t kArmed = 0x02;       // the endstop may trigger a reversal
@@ -25,17 +28,21 @@ const uint8_t kFault = 0x10;       // switch found stuck: ignored from now on
 const uint8_t kLimits = 0x20;      // soft limits on (travel configured)
 const uint8_t kRestrike = 0x40;    // a timed note change waits for its time (restrike_at)
 
+// Mailbox states (Motor::cmd).
+const uint8_t kCmdNone = 0;
+const uint8_t kCmdLive = 1;   // play cmd_period_q8 from now on
+const uint8_t kCmdTimed = 2;  // ... exactly at cmd_at
+
 struct Motor {
-  uint32_t deadline;          // ticks of the next STEP rising edge (of the last one while played)
+  uint32_t deadline;          // ticks of the next STEP rising edge (of the one just raised, in its ISR)
   uint32_t period_q8;         // current period, ticks q8 (0 = silent)
   uint8_t deadline_frac;      // 1/256 tick
   uint8_t flags;
-  uint16_t pulse_ticks;
-  volatile uint8_t *step_port;
+  uint8_t pulse_ticks;        // STEP high time (at most 160: 10 us)
   volatile uint8_t *dir_port;
   volatile uint8_t *sw_up_pin;    // switch checked while moving up (max), 0 if none
   volatile uint8_t *sw_down_pin;  // switch checked while moving down (min), 0 if none
-  uint8_t step_mask, dir_mask, sw_up_mask, sw_down_mask;
+  uint8_t dir_mask, sw_up_mask, sw_down_mask;
   int32_t position;           // steps
   int32_t limit_hi, limit_lo; // soft limits, steps
   uint32_t travel_steps;
@@ -44,264 +51,220 @@ struct Motor {
   uint32_t start_q8;          // ramp: first period (0 = no ramp)
   uint32_t released_since;    // ticks: the switch has read released since then
   uint32_t restrike_at;       // ticks: when a timed note change on a sounding motor strikes
-  uint32_t next_rough;        // played, not yet bookkept: about when its next edge is due
   uint16_t pressed_steps;     // steps taken while the switch still reads pressed
   int32_t calibration_steps;  // how far the last switch press moved the counted position
-  // Mailbox, written by the main loop with interrupts off, read by the step ISR (bit m of
-  // g_cmd_mask says it holds a period).
+  // Mailbox of a sounding motor: the main loop fills cmd_period_q8 and cmd_at while cmd is
+  // kCmdNone, then sets cmd with interrupts off; the motor's channel ISR takes it.
   uint32_t cmd_period_q8;
+  uint32_t cmd_at;
+  volatile uint8_t cmd;
 };
 
-Motor g_motor[board::active::kMotorCount];
-uint8_t g_count;
-Motor *g_order[board::active::kMotorCount];            // sounding motors not yet played, earliest deadline first
-volatile uint8_t g_active;     // how many of g_order are valid
-Motor *g_played[board::active::kMotorCount];           // motors stepped by a burst, waiting for their next deadline
-uint8_t g_played_count;
-volatile uint8_t g_cmd_mask;   // bit m: motor m has a command in its mailbox
-uint8_t g_claimed;             // bit m: the main loop is starting motor m (start_now): hands off
-uint32_t g_armed;              // 32-bit time OCR1A is armed for (always within 32768 ticks)
+Motor g_motor[kMotors];
+// Bit m: motor m sounds, and its channel belongs to its ISR. Set by the main loop when it
+// starts a silent motor, cleared by the ISR when the motor falls silent (or by stop-all).
+volatile uint8_t g_sounding;
+// Matches of motor m's channel still to come before its edge (its stub counts them down and
+// clears bit m of GPIOR0 at the last); kWrapsVisit: the next match enters the handler (a
+// command to take, or more matches than the count holds).
+volatile uint8_t g_wraps[kMotors];
+const uint8_t kWrapsVisit = 0x80;
+volatile uint8_t g_wraps_then[kMotors];  // g_wraps once the count is out: 0 (the edge next) or kWrapsVisit
+const uint16_t kFineTicks = 61440;       // arm() counts wraps exactly up to this far ahead
+const uint8_t kRoughSpareWraps = 16;     // ... and further, ends a rough count this early
+const uint8_t kRoughVisit = 0xFF;        // arm(): the handler at the next match
+volatile uint32_t g_time_base;  // a recent board time (see now())
 volatile uint16_t g_reversals;
 volatile uint16_t g_late_edges;
 volatile uint8_t g_motor_fault;
-// Timestamped entries (kMsgAt): a ring the main loop fills and the step ISR empties, each
-// entry cfg::kTakeTicks before its time, so that it starts or strikes its motor exactly on
-// the time whatever the main loop is busy with. One writer a side, no lock: the main loop
-// writes a slot, then counts it in g_q_put; the ISR reads the oldest, then counts it in
-// g_q_taken (free-running one-byte counts: used = put - taken).
+volatile uint8_t g_late_entries;  // timed entries made after their time (played at once)
+volatile uint8_t g_late_motor;    // the last one's motor
+// Timestamped entries (kMsgAt): a ring the main loop fills (hal::queue_at) and empties
+// (poll()), each entry cfg::kTakeTicks before its time.
 struct AtSlot {
   uint32_t at;
   uint32_t period_q8;
   uint8_t motor;
 };
 AtSlot g_q[cfg::kQueueSize];
-volatile uint8_t g_q_put, g_q_taken;
-uint8_t g_q_put_idx;   // main loop's next slot
-uint8_t g_q_take_idx;  // step ISR's next slot (the main loop moves it only with interrupts off)
-volatile uint8_t g_late_entries;  // entries taken after their time (played at once)
-volatile uint8_t g_late_motor;    // the last one's motor
-// Starvation of the main loop (see the ISR): board time when it last began a pass, and the
-// ticks the step ISR has run since then (its invocations that returned).
-volatile uint32_t g_main_pass;
-uint32_t g_isr_busy;
-const uint8_t kIsrEntryExitTicks = 160;  // the step ISR's prologue and epilogue, about
-const uint8_t kRxIsrTicks = 56;          // one byte in the UART receive ISR, nested (simavr: 53)
+uint8_t g_q_used, g_q_put_idx, g_q_take_idx;
+#if defined(__AVR_ATmega2560__)
+uint16_t g_skew3;  // TCNT3 - TCNT1 (cycles), set once at init
+#else
+uint8_t g_skew2;   // TCNT2 - TCNT1 / 8 (Timer2 ticks), set once at init
+#endif
 
-// Called from: step ISR. Ticks of an invocation `in_isr` long that were its own: the receive
-// ISR's bytes nested in it are the main loop's work (frames), not the steps'.
-inline uint16_t own_ticks(uint16_t in_isr, uint8_t rx_entered) {
-  const uint16_t rx = (uint16_t)((uint8_t)(link::rx_head() - rx_entered) & (cfg::kRxRingBytes - 1)) * kRxIsrTicks;
-  return in_isr > rx ? (uint16_t)(in_isr - rx) : 0;
-}
-// Between two ISR invocations g_played and g_cmd_mask are empty unless the main loop just
-// started a motor itself (start_now) or posted a command: the ISR returns only when it has
-// nothing left to do, and the main loop wakes it for those within kPostLeadTicks.
-
-const uint16_t kLateTicks = 36;  // an edge raised more than 2 us after its deadline is late (raise + 4)
 // A timed strike on a sounding motor replaces an old edge due less than this before its time:
 // both would sound as one doubled step (a note change on the old note's own grid, as in a
-// legato melody, lands within a tick of an old edge). Far shorter than the command's hand-over
-// lead, so the old edge is always still pending when the command comes.
+// legato melody, lands within a tick of an old edge).
 const int32_t kStrikeSnapTicks = 512;
 
-// Called from: step ISR. Inserts motor m by deadline.
-void order_insert(Motor *m) {
-  const uint32_t d = m->deadline;
-  uint8_t pos = g_active;
-  while (pos > 0 && (int32_t)(g_order[pos - 1]->deadline - d) > 0) {
-    g_order[pos] = g_order[pos - 1];
-    --pos;
+// From the stub's raise to the handler's first timer read (ticks): the stub's jump, the
+// handler's sei and register saves (45 cycles by the disassembly; less is safe: a pulse is then
+// a little longer than asked).
+const uint8_t kStubToHandlerTicks = 40;
+
+// Called from: anywhere. Board time in ticks (interrupts off for about 14 cycles): Timer1's
+// count extended from g_time_base, a time at most 32,767 ticks old (Timer0's ISR moves it on
+// every 16,384 ticks).
+__attribute__((noinline)) uint32_t now() {
+  uint32_t base;
+  uint16_t lo;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    base = g_time_base;
+    lo = TCNT1;
   }
-  g_order[pos] = m;
-  g_active = (uint8_t)(g_active + 1);
+  return base + (int16_t)(lo - (uint16_t)base);
 }
 
-// Called from: step ISR. Removes motor m if it is in the order.
-void order_remove(Motor *m) {
-  uint8_t n = g_active, i = 0;
-  while (i < n && g_order[i] != m) ++i;
-  if (i == n) return;
-  for (; i + 1 < n; ++i) g_order[i] = g_order[i + 1];
-  g_active = (uint8_t)(n - 1);
-}
-
-// Called from: step ISR and main loop, interrupts off. Current board time in ticks.
-__attribute__((always_inline)) inline uint32_t now_locked() {
-  return g_armed + (int16_t)(TCNT1 - (uint16_t)g_armed);
-}
-
-// A burst never runs into a played motor's own next step: it chains at most one edge of each
-// motor, all within kBurstSpanTicks of the first, and the shortest period leaves
-// kRescheduleTicks after that.
-static_assert(cfg::kBurstSpanTicks + cfg::kRescheduleTicks <= (sc::kPeriodQ8Min >> sc::kPeriodFracBits),
-              "a burst ends, and its motors are rescheduled, before the first one's next step");
-
-// Called from: burst(), interrupts off. Waits for tick t (16-bit, with wrap), sets mask in
-// *port and stores the time right after the write at *rp++. In assembly: as C the wait, write
-// and store took 33 cycles of the raise loop's 59 (gcc kept the difference in extra registers
-// and indexed the store), here 20, and the wait checks the timer every 8 cycles, not 11.
-__attribute__((always_inline)) inline void raise_at(uint16_t t, volatile uint8_t *port, uint8_t mask, uint16_t *&rp) {
-  uint16_t now;
-  __asm__ __volatile__(
-      "1:\n\t"
-      "lds %A[now], %[tl]\n\t"
-      "lds %B[now], %[th]\n\t"
-      "sub %A[now], %A[t]\n\t"
-      "sbc %B[now], %B[t]\n\t"
-      "brmi 1b\n\t"
-      "ld __tmp_reg__, %a[port]\n\t"
-      "or __tmp_reg__, %[mask]\n\t"
-      "st %a[port], __tmp_reg__\n\t"
-      "lds %A[now], %[tl]\n\t"
-      "lds %B[now], %[th]\n\t"
-      "st %a[rp]+, %A[now]\n\t"
-      "st %a[rp]+, %B[now]\n\t"
-      : [now] "=&r"(now), [rp] "+x"(rp)
-      : [t] "r"(t), [port] "z"(port), [mask] "r"(mask), [tl] "n"(_SFR_MEM_ADDR(TCNT1L)),
-        [th] "n"(_SFR_MEM_ADDR(TCNT1H))
-      : "memory");
-}
-
-// Called from: step ISR, interrupts on, the head due within kSoonTicks. Raises the head, then
-// every next motor due within kComebackTicks of the previous edge (the ISR could not come back
-// for it in time), lowering each STEP once its pulse has passed. Played motors move from
-// g_order to g_played.
+// ---------------------------------------------------------------------------------------
+// Channels. Motor m steps from compare channel m; its ISR (SC_STEP_ENTRY below) raises STEP
+// as its third instruction when bit m of GPIOR0 is clear, and otherwise counts off a match
+// that comes before the edge's (g_wraps) or enters the handler without raising (a command).
 //
-// The burst's raise times are planned before its first wait (16-bit, a few cycles a motor),
-// so that going from one raise to the next is a tight loop (wait for the tick, write the
-// port, note the time, load the next motor) of kWriteGapTicks:
-// - an edge due less than kWriteGapTicks after the raise before it is planned kWriteGapTicks
-//   after it, and a run of such forced raises is moved earlier by half its largest lateness
-//   (never closer than kWriteGapTicks to the raise before the run): the error is shared, each
-//   edge of two due on the same tick kWriteGapTicks / 2 off;
-// - a raise closer than kCliLeadTicks to the one before, within kMaxOffTicks of its run's
-//   first, is made in the same interrupts-off run; interrupts are off from kCliLeadTicks
-//   before a run's first raise until its last;
-// - a raise less than kBreatherTicks after the one before (but not in its run) stays in the
-//   loop: waiting interrupts are let in (sei, nop, cli) right after the raise before, then
-//   they are off until this one (a real AVR lets one in there; the virtual board none: it takes
-//   a waiting interrupt two instructions after sei, `ctest -R vboard_timer_quirks`);
-// - further apart, interrupts are on between runs, and pulses that have passed are lowered.
-// Before the plan, a pass of the raise loop (loading the next motor, deciding its wait) took
-// 90-130 cycles: an edge due that soon after another motor's raise came late.
-// Cycles with interrupts off: at most kCliLeadTicks + kMaxOffTicks, or kBreatherTicks after a
-// breath, plus one raise.
-__attribute__((always_inline)) inline void burst() {
-  const uint8_t active = g_active;
-  uint16_t at[board::active::kMotorCount];  // planned raise times
-  uint8_t n = 1;
-  {
-    const uint32_t first = g_order[0]->deadline;
-    uint32_t last = first;
-    at[0] = (uint16_t)last;
-    for (; n < active; ++n) {
-      const uint32_t d = g_order[n]->deadline;
-      // the order is sorted: d - last >= 0
-      if (d - last > cfg::kComebackTicks || d - first > cfg::kBurstSpanTicks) break;
-      last = d;
-      at[n] = (uint16_t)d;
-    }
+// Chan<m>: the channel's registers. Timer1 and Timer3 count CPU cycles (16 bits, a wrap every
+// 4.1 ms); the Uno's Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every 16-bit
+// register access runs with interrupts off (the timers' TEMP byte is shared).
+template <uint8_t M> struct Chan;
+
+// No flag is ever cleared by writing TIFR: the virtual board (simavr 1.6) clears every flag of
+// a timer when any bit of its TIFR is written (its handler ignores the value), losing the other
+// channels' matches. A match of an old compare value still waiting is let in while the busy
+// bit is set, and returns at once. Writing an OCR register makes the virtual board reschedule
+// the timer's compares, and one due in that instruction is lost: settle() first waits (32
+// cycles at most) until a compare of the same timer due that soon has set its flag. A real
+// chip loses neither; the checks cost a few cycles.
+// Busy bit of motor m (an I/O bit, for sbic/sbi in its stub): set by the stub, cleared when the
+// handler has armed the channel again; a match while it is set returns at once. Held up by
+// other handlers nested in it, a handler may come to arming after its channel's next match
+// (Timer2 wraps every 128 us). The Uno's four motors use GPIOR0 bits 4-7; the Mega's five use
+// GPIOR0 bits 5-7 and PORTG bits 3-4 (PG3 and PG4 are not brought out on an Arduino Mega:
+// their pull-ups are the bits).
+#if defined(__AVR_ATmega2560__)
+#define SC_BUSY_IO(M) ((M) < 3 ? 0x1E : 0x14)
+#define SC_BUSY_BIT(M) ((M) < 3 ? (M) + 5 : (M))
+static_assert(_SFR_IO_ADDR(PORTG) == 0x14 && _SFR_IO_ADDR(GPIOR0) == 0x1E, "busy bits");
+#else
+#define SC_BUSY_IO(M) 0x1E
+#define SC_BUSY_BIT(M) ((M) + 4)
+static_assert(_SFR_IO_ADDR(GPIOR0) == 0x1E, "busy bits");
+#endif
+template <uint8_t M> inline void busy_clear() { _SFR_IO8(SC_BUSY_IO(M)) &= (uint8_t)~_BV(SC_BUSY_BIT(M)); }
+
+const uint8_t kSettleTicks = 32;
+// Waits while the compare in `ocr` of the same timer is due within kSettleTicks and has not yet
+// set its flag (`flag` in `tifr`). Interrupts off.
+__attribute__((always_inline)) inline void settle16(volatile uint16_t &ocr, volatile uint16_t &tcnt, volatile uint8_t &tifr, uint8_t flag) {
+  while (!(tifr & flag) && (uint16_t)(ocr + 1 - tcnt) < kSettleTicks) {
   }
-  // Forced raises, and the runs made with interrupts off (see above). Bit i of joins: raise i
-  // is made in the run of raise i - 1; of breathe: after letting waiting interrupts in.
-  uint8_t joins = 0, breathe = 0;
-  if (n > 1) {
-    uint8_t run = 0;                          // first raise of the current forced run
-    uint16_t run_late = 0;                    // its largest lateness
-    uint16_t run_room = cfg::kWriteGapTicks;  // how far it may move earlier
-    uint16_t prev = at[0];
-    for (uint8_t i = 1; i <= n; ++i) {
-      uint16_t gap = 0;
-      if (i < n) {
-        gap = (uint16_t)(at[i] - prev);
-        if (gap < cfg::kWriteGapTicks) {
-          const uint16_t late = (uint16_t)(cfg::kWriteGapTicks - gap);
-          if (late > run_late) run_late = late;
-          prev = at[i] = (uint16_t)(prev + cfg::kWriteGapTicks);
-          continue;
-        }
-        prev = at[i];
-      }
-      if (run_late) {
-        const uint16_t shift = (run_late >> 1) < run_room ? (uint16_t)(run_late >> 1) : run_room;
-        for (uint8_t k = run; k < i; ++k) at[k] = (uint16_t)(at[k] - shift);
-        run_late = 0;
-      }
-      if (i == n) break;
-      run = i;
-      run_room = (uint16_t)(gap - cfg::kWriteGapTicks);
-    }
-    uint16_t first = at[0];
-    uint8_t bit = 2;
-    for (uint8_t i = 1; i < n; ++i, bit = (uint8_t)(bit << 1)) {
-      const uint16_t gap = (uint16_t)(at[i] - at[i - 1]);
-      if (gap < cfg::kCliLeadTicks && (uint16_t)(at[i] - first) <= cfg::kMaxOffTicks) {
-        joins |= bit;
-      } else if (gap < cfg::kBreatherTicks) {
-        joins |= bit;
-        breathe |= bit;
-        first = at[i - 1];
-      } else {
-        first = at[i];
-      }
-    }
+}
+__attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volatile uint8_t &tcnt, volatile uint8_t &tifr, uint8_t flag) {
+  while (!(tifr & flag) && (uint8_t)(ocr + 1 - tcnt) < (kSettleTicks >> 3)) {
   }
-  uint16_t raised[board::active::kMotorCount];
-  uint8_t low = 0;
-  Motor *const *op = g_order;
-  const uint16_t *tp = at;
-  uint16_t *rp = raised;
-  for (uint8_t i = 0, bit = 1; i < n;) {
-    const Motor *m = *op;
-    uint16_t t = *tp;
-    volatile uint8_t *port = m->step_port;
-    uint8_t mask = m->step_mask;
-    while ((int16_t)(t - TCNT1) > (int16_t)cfg::kCliLeadTicks) {
-      if (low < i && (uint16_t)(TCNT1 - raised[low]) >= g_order[low]->pulse_ticks) {
-        *g_order[low]->step_port &= (uint8_t)~g_order[low]->step_mask;  // ports: main loop and
-        ++low;                                                            // nested ISRs keep off
-      }
-    }
-    cli();
-    for (;;) {
-      raise_at(t, port, mask, rp);
-      ++op;
-      ++tp;
-      ++i;
-      bit = (uint8_t)(bit << 1);
-      if (!(joins & bit)) break;  // also past the last raise: no bit set there
-      m = *op;
-      t = *tp;
-      port = m->step_port;
-      mask = m->step_mask;
-      if (breathe & bit) {
-        sei();
-        __asm__ __volatile__("nop");
-        cli();
-      }
-    }
-    sei();
-  }
-  for (; low < n; ++low) {
-    const Motor *p = g_order[low];
-    while ((uint16_t)(TCNT1 - raised[low]) < p->pulse_ticks) {
-    }
-    *p->step_port &= (uint8_t)~p->step_mask;
-  }
-  for (uint8_t i = 0; i < n; ++i) {
-    Motor *p = g_order[i];
-    if ((int16_t)(raised[i] - (uint16_t)p->deadline) > (int16_t)kLateTicks)
-      g_late_edges = (uint16_t)(g_late_edges + 1);
-    p->next_rough = p->deadline + (p->period_q8 >> 8);
-    g_played[g_played_count++] = p;
-  }
-  for (uint8_t i = n; i < active; ++i) g_order[i - n] = g_order[i];
-  g_active = (uint8_t)(active - n);
 }
 
-// Called from: step ISR (interrupts on). Position, endstop bounce-back and soft limits after
-// one step of m; a reversal turns DIR before the motor's next step.
-inline void account_step(Motor &m) {
+#define SC_CHAN_T1(M, X, SIBS)                                                                  \
+  template <> struct Chan<M> {                                                              \
+    static const uint32_t kWrap = 65536ul;                                                  \
+    typedef uint16_t Value;                                                                 \
+    static inline Value value(uint32_t d) { return (uint16_t)d; }                           \
+    static inline Value read() { return OCR1##X; }                                          \
+    static inline void write(Value v) { OCR1##X = v; }                                      \
+    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR1##X + 1 - TCNT1); return a ? a : 0xFFFF; } \
+    static inline uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
+    static inline void settle() { SIBS }                                                   \
+    static inline bool waiting() { return TIFR1 & _BV(OCF1##X); }                           \
+    static inline uint16_t ahead() { return (uint16_t)(OCR1##X - TCNT1); }                  \
+    static inline void trigger() { SIBS OCR1##X = (uint16_t)(TCNT1 + cfg::kTriggerLeadTicks); } \
+  };
+#define SC_CHAN_T3(M, X, SIBS)                                                                     \
+  template <> struct Chan<M> {                                                                 \
+    static const uint32_t kWrap = 65536ul;                                                     \
+    typedef uint16_t Value;                                                                    \
+    static inline Value value(uint32_t d) { return (uint16_t)((uint16_t)d + g_skew3); }        \
+    static inline Value read() { return OCR3##X; }                                             \
+    static inline void write(Value v) { OCR3##X = v; }                                         \
+    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR3##X + 1 - TCNT3); return a ? a : 0xFFFF; } \
+    static inline uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
+    static inline void settle() { SIBS }                                                      \
+    static inline bool waiting() { return TIFR3 & _BV(OCF3##X); }                              \
+    static inline uint16_t ahead() { return (uint16_t)(OCR3##X - TCNT3); }                     \
+    static inline void trigger() { SIBS OCR3##X = (uint16_t)(TCNT3 + cfg::kTriggerLeadTicks); } \
+  };
+#define SC_CHAN_T2(M, X, SIBS)                                                                        \
+  template <> struct Chan<M> {                                                                    \
+    static const uint32_t kWrap = 2048ul;                                                         \
+    typedef uint8_t Value;                                                                        \
+    static inline Value value(uint32_t d) { return (uint8_t)(((uint16_t)d >> 3) + g_skew2); }     \
+    static inline Value read() { return OCR2##X; }                                                \
+    static inline void write(Value v) { OCR2##X = v; }                                            \
+    static inline uint16_t until() { const uint8_t a = (uint8_t)(OCR2##X + 1 - TCNT2); return a ? (uint16_t)a << 3 : (uint16_t)kWrap; } \
+    static inline uint8_t count(uint32_t, uint16_t d16, uint16_t t, uint16_t u) { return (uint8_t)((uint16_t)(d16 - t - u + 1024u) >> 11); } \
+    static inline void settle() { SIBS }                                                         \
+    static inline bool waiting() { return TIFR2 & _BV(OCF2##X); }                                 \
+    static inline uint16_t ahead() { return (uint16_t)((uint8_t)(OCR2##X - TCNT2)) << 3; }        \
+    static inline void trigger() { SIBS OCR2##X = (uint8_t)(TCNT2 + (cfg::kTriggerLeadTicks >> 3)); } \
+  };
+
+#if defined(__AVR_ATmega2560__)
+// X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer3 compare A, B.
+#define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
+#define SC_S3(X) settle16(OCR3##X, TCNT3, TIFR3, _BV(OCF3##X));
+SC_CHAN_T1(0, A, SC_S1(B) SC_S1(C))
+SC_CHAN_T1(1, B, SC_S1(A) SC_S1(C))
+SC_CHAN_T1(2, C, SC_S1(A) SC_S1(B))
+SC_CHAN_T3(3, A, SC_S3(B))
+SC_CHAN_T3(4, B, SC_S3(A))
+#else
+// X, Y: Timer1 compare A, B; Z, A: Timer2 compare A, B.
+#define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
+#define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
+SC_CHAN_T1(0, A, SC_S1(B))
+SC_CHAN_T1(1, B, SC_S1(A))
+SC_CHAN_T2(2, A, SC_S2(B))
+SC_CHAN_T2(3, B, SC_S2(A))
+#endif
+static_assert(kMotors <= 5, "one compare channel per motor, five at most");
+
+
+// Step<m>: motor m's STEP pin, checked against the board table. In the I/O space (sbi/cbi,
+// atomic) except the Mega's Z on PORTL, whose read-modify-write runs with interrupts off.
+template <uint8_t M> struct Step;
+constexpr bool step_is(uint8_t m, char port, uint8_t bit) {
+  return board::active::kMotors[m].step.port == port && board::active::kMotors[m].step.bit == bit;
+}
+#define SC_STEP_IO(M, PORT, LETTER, BIT)                                                 \
+  static_assert(step_is(M, LETTER, BIT), "STEP pin of motor " #M " is not " #LETTER #BIT); \
+  template <> struct Step<M> {                                                           \
+    static inline void raise() { PORT |= _BV(BIT); }                                     \
+    static inline void lower() { PORT &= (uint8_t)~_BV(BIT); }                           \
+  };
+#define SC_STEP_MEM(M, PORT, LETTER, BIT)                                                \
+  static_assert(step_is(M, LETTER, BIT), "STEP pin of motor " #M " is not " #LETTER #BIT); \
+  template <> struct Step<M> {                                                           \
+    static inline void raise() { ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { PORT |= _BV(BIT); } } \
+    static inline void lower() { ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { PORT &= (uint8_t)~_BV(BIT); } } \
+  };
+#if defined(__AVR_ATmega2560__)
+SC_STEP_IO(0, PORTF, 'F', 0)
+SC_STEP_IO(1, PORTF, 'F', 6)
+SC_STEP_MEM(2, PORTL, 'L', 3)
+SC_STEP_IO(3, PORTA, 'A', 4)
+SC_STEP_IO(4, PORTC, 'C', 1)
+#else
+SC_STEP_IO(0, PORTD, 'D', 2)
+SC_STEP_IO(1, PORTD, 'D', 3)
+SC_STEP_IO(2, PORTD, 'D', 4)
+SC_STEP_IO(3, PORTB, 'B', 4)
+#endif
+
+// ---------------------------------------------------------------------------------------
+// Motor logic. Runs in motor m's own context: its channel ISR (interrupts on), or the main
+// loop while the motor is silent (its channel off). Nothing else touches the motor then.
+
+// Position, endstop bounce-back and soft limits after one step of m; a reversal turns DIR
+// before the motor's next step.
+void account_step(Motor &m) {
   const bool up = m.flags & kUp;
   m.position += up ? 1 : -1;
   bool reverse = false;
@@ -337,15 +300,16 @@ inline void account_step(Motor &m) {
   if (!reverse && (m.flags & kLimits)) reverse = up ? m.position >= m.limit_hi : m.position <= m.limit_lo;
   if (reverse) {
     m.flags ^= kUp;
-    *m.dir_port ^= m.dir_mask;  // main loop suspended, nested ISRs leave the ports alone
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { *m.dir_port ^= m.dir_mask; }  // other motors share the port
     g_reversals = (uint16_t)(g_reversals + 1);
   }
 }
 
-// Called from: step ISR (interrupts on). Next deadline of m after the step at m.deadline: one
-// period on (fraction carried), the onset ramp shortening the period step by step; a pending
-// restrike lands exactly on its time instead, with the new period from there.
-inline void next_deadline(Motor &m) {
+// Next deadline of m after the step at m.deadline: one period on (fraction carried), the
+// onset ramp shortening the period step by step; a pending restrike lands exactly on its time
+// instead, with the new period from there (0: a timed silence, before its first edge at or
+// after the time).
+void next_deadline(Motor &m) {
   if (m.flags & kRamp) {
     if (m.period_q8 > m.target_q8 + m.ramp_q8) {
       m.period_q8 -= m.ramp_q8;
@@ -356,9 +320,6 @@ inline void next_deadline(Motor &m) {
   }
   const uint16_t frac = (uint16_t)m.deadline_frac + (uint8_t)m.period_q8;
   const uint32_t next = m.deadline + (m.period_q8 >> 8) + (frac >> 8);
-  // An old edge within kStrikeSnapTicks before the strike gives way to it. A timed silence
-  // (target 0) stops the motor before its first edge at or after the time (bookkeep_one then
-  // leaves it out of the order).
   if ((m.flags & kRestrike) &&
       (int32_t)(next - m.restrike_at) >= (m.target_q8 ? -kStrikeSnapTicks : 0)) {
     m.deadline = m.restrike_at;
@@ -371,30 +332,9 @@ inline void next_deadline(Motor &m) {
   m.deadline = next;
 }
 
-// Called from: step ISR (interrupts on), after a burst. Bookkeeping of the played motor whose
-// next step comes first: position, endstops and soft limits of the step it took (a reversal
-// turns DIR before its next step), then its next deadline and its place in the order.
-__attribute__((always_inline)) inline void bookkeep_one() {
-  uint8_t best = 0;
-  uint32_t best_next = g_played[0]->next_rough;
-  for (uint8_t i = 1; i < g_played_count; ++i) {
-    const uint32_t next = g_played[i]->next_rough;
-    if ((int32_t)(next - best_next) < 0) {
-      best = i;
-      best_next = next;
-    }
-  }
-  Motor *m = g_played[best];
-  g_played[best] = g_played[--g_played_count];
-  account_step(*m);
-  next_deadline(*m);
-  if (m->period_q8 != 0) order_insert(m);  // 0: a timed silence fell before its next edge
-}
-
-// Called from: step ISR (interrupts on) and main loop (start_now). Which way a silent motor
-// starts: the direction with more room ahead (the music2gcode border rule), never into a
-// pressed switch.
-inline bool start_up(const Motor &m) {
+// Which way a silent motor starts: the direction with more room ahead (the music2gcode border
+// rule), never into a pressed switch.
+bool start_up(const Motor &m) {
   bool up = m.flags & kUp;
   if (m.flags & kLimits) up = m.position < (int32_t)(m.travel_steps / 2);
   volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
@@ -405,24 +345,19 @@ inline bool start_up(const Motor &m) {
   return up;
 }
 
-// Called from: step ISR (interrupts on) and main loop (start_now, interrupts off). Sets DIR
-// (main loop suspended or interrupts off: nobody else writes the port meanwhile); true when
-// it changed.
-inline bool set_dir(Motor &m, bool up) {
-  if (up == (bool)(m.flags & kUp) && ((*m.dir_port & m.dir_mask) != 0) == up) return false;
-  if (up) {
-    m.flags |= kUp;
-    *m.dir_port |= m.dir_mask;
-  } else {
-    m.flags &= (uint8_t)~kUp;
-    *m.dir_port &= (uint8_t)~m.dir_mask;
+// Sets DIR (other motors share the port: the write runs with interrupts off).
+void set_dir(Motor &m, bool up) {
+  if (up == (bool)(m.flags & kUp) && ((*m.dir_port & m.dir_mask) != 0) == up) return;
+  if (up) m.flags |= kUp;
+  else m.flags &= (uint8_t)~kUp;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    if (up) *m.dir_port |= m.dir_mask;
+    else *m.dir_port &= (uint8_t)~m.dir_mask;
   }
-  return true;
 }
 
-// Called from: step ISR and main loop (interrupts off there). A silent motor's period from its
-// first edge on: the onset ramp's start period when it is longer.
-inline void start_period(Motor &m, uint32_t period_q8) {
+// A silent motor's period from its first edge on: the onset ramp's start period when longer.
+void start_period(Motor &m, uint32_t period_q8) {
   m.deadline_frac = 0;
   m.flags &= (uint8_t)~(kRamp | kRestrike);
   if (m.start_q8 > period_q8) {
@@ -434,65 +369,45 @@ inline void start_period(Motor &m, uint32_t period_q8) {
   }
 }
 
-// Called from: step ISR (interrupts on). Starts a silent motor (direction: start_up), first
-// edge at `first`, or as soon as it can be played if that has passed.
-void start(Motor &m, uint32_t period_q8, uint32_t first) {
-  set_dir(m, start_up(m));
-  const uint32_t soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
-  m.deadline = (int32_t)(first - soonest) < 0 ? soonest : first;
-  start_period(m, period_q8);
-  order_insert(&m);
-}
-
-// Called from: step ISR (interrupts on). A sounding motor takes a new period, keeping its
-// phase: the next edge comes one new period after the last one (or soon, if that is past).
-void retune(Motor &m, uint32_t period_q8) {
-  uint32_t soonest;
-  m.flags &= (uint8_t)~(kRamp | kRestrike);
-  if (m.period_q8 == period_q8) return;
-  uint16_t frac = (uint16_t)m.deadline_frac - (uint8_t)m.period_q8;
-  const uint32_t last = m.deadline - (m.period_q8 >> 8) - ((frac >> 8) ? 1 : 0);
-  frac = (uint16_t)(uint8_t)frac + (uint8_t)period_q8;
-  uint32_t next = last + (period_q8 >> 8) + (frac >> 8);
-  soonest = now_locked() + cfg::kStartLeadTicks;  // after the work above
-  if ((int32_t)(next - soonest) < 0) {
-    next = soonest;
-    frac = 0;
-  }
-  order_remove(&m);
-  m.deadline = next;
-  m.deadline_frac = (uint8_t)frac;
-  m.period_q8 = period_q8;
-  order_insert(&m);
-}
-
-// Called from: step ISR (interrupts on). Motor m takes period (sc::kPeriodSilent: silence)
-// now, or, timed, exactly at board time `at`. Returns false when a timed change came too late
-// for its time (it is made at once).
-__attribute__((noinline)) bool apply(Motor &m, uint32_t period, bool want_timed, uint32_t at) {
-  uint32_t now;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { now = now_locked(); }
-  const uint32_t soonest = now + cfg::kStartLeadTicks;
+// Motor m takes period (sc::kPeriodSilent: silence) now, or, timed, exactly at board time
+// `at`: a silent motor starts (its first edge on the time, or kStartLeadTicks from now), a
+// sounding one keeps its phase (the next edge one new period after the last), or strikes on
+// the time. Returns false when a timed change came too late for its time (made at once).
+// m.deadline is the next edge still to come.
+bool apply(Motor &m, uint32_t period, bool want_timed, uint32_t at) {
+  const uint32_t soonest = now() + cfg::kStartLeadTicks;
   const bool timed = want_timed && (int32_t)(at - soonest) > 0;
   if (m.period_q8 == 0 && period == sc::kPeriodSilent) {
     m.flags &= (uint8_t)~(kRamp | kRestrike);  // silent already (a timed silence may be pending)
   } else if (period == sc::kPeriodSilent && (!timed || (int32_t)(m.deadline - at) >= 0)) {
     // Now, or at a time before the motor's next edge (which would be the first one silenced).
-    order_remove(&m);
     m.period_q8 = 0;
     m.flags &= (uint8_t)~(kRamp | kRestrike);
   } else if (m.period_q8 == 0) {
-    start(m, period, timed ? at : soonest);
+    set_dir(m, start_up(m));
+    m.deadline = timed ? at : soonest;
+    start_period(m, period);
   } else if (!timed) {
-    retune(m, period);
+    m.flags &= (uint8_t)~(kRamp | kRestrike);
+    if (m.period_q8 != period) {
+      uint16_t frac = (uint16_t)m.deadline_frac - (uint8_t)m.period_q8;
+      const uint32_t last = m.deadline - (m.period_q8 >> 8) - ((frac >> 8) ? 1 : 0);
+      frac = (uint16_t)(uint8_t)frac + (uint8_t)period;
+      uint32_t next = last + (period >> 8) + (frac >> 8);
+      if ((int32_t)(next - soonest) < 0) {
+        next = soonest;
+        frac = 0;
+      }
+      m.deadline = next;
+      m.deadline_frac = (uint8_t)frac;
+      m.period_q8 = period;
+    }
   } else if ((int32_t)(m.deadline - at) >= -kStrikeSnapTicks) {
     // The next edge not before the time, or just before it: strike on it.
-    order_remove(&m);
     m.deadline = at;
     m.deadline_frac = 0;
     m.period_q8 = period;
     m.flags &= (uint8_t)~(kRamp | kRestrike);
-    order_insert(&m);
   } else {  // strike (or fall silent) on the time, after the edges still due before it
     m.target_q8 = period;
     m.restrike_at = at;
@@ -501,162 +416,290 @@ __attribute__((noinline)) bool apply(Motor &m, uint32_t period, bool want_timed,
   return timed || !want_timed;
 }
 
-// Called from: step ISR (interrupts on). Carries out one command from a motor's mailbox.
-__attribute__((noinline)) void apply_one() {
-  uint8_t mi = 0;
-  while (!(g_cmd_mask & (1u << mi))) ++mi;
-  Motor &m = g_motor[mi];
-  uint32_t period;
-  cli();
-  period = m.cmd_period_q8;
-  g_cmd_mask &= (uint8_t)~(1u << mi);
-  sei();
-  apply(m, period, false, 0);
-}
-
-// Called from: step ISR. The oldest timestamped entry, when it is due within kTakeTicks and
-// its motor holds no timed change still to come (a second would replace it; the entry waits
-// until that one has become the motor's next edge). Null otherwise.
-inline const AtSlot *entry_due(uint32_t now) {
-  if (g_q_put == g_q_taken) return 0;
-  const AtSlot &e = g_q[g_q_take_idx];
-  const int32_t ahead = (int32_t)(e.at - now);
-  if (ahead > (int32_t)cfg::kTakeTicks) return 0;
-  if ((g_motor[e.motor].flags & kRestrike) && ahead > (int32_t)cfg::kStartLeadTicks) return 0;
-  if (g_claimed & (1u << e.motor)) return 0;  // after start_now's hand-over (a strike, then)
-  return &e;
-}
-
-// Called from: step ISR (interrupts on). Takes the oldest timestamped entry (entry_due).
-__attribute__((noinline)) void take_one(const AtSlot *e) {
-  const AtSlot slot = *e;
-  g_q_take_idx = (uint8_t)(g_q_take_idx + 1 == cfg::kQueueSize ? 0 : g_q_take_idx + 1);
-  g_q_taken = (uint8_t)(g_q_taken + 1);
-  if (!apply(g_motor[slot.motor], slot.period_q8, true, slot.at)) {
-    g_late_motor = slot.motor;
+// Takes the command in m's mailbox.
+void take_command(uint8_t mi, Motor &m) {
+  const bool timed = m.cmd == kCmdTimed;
+  m.cmd = kCmdNone;
+  if (!apply(m, m.cmd_period_q8, timed, m.cmd_at)) {
+    g_late_motor = mi;
     g_late_entries = (uint8_t)(g_late_entries + 1);
   }
 }
 
-// Called from: step ISR, interrupts off. Arms OCR1A kEarlyTicks before the next deadline, or
-// for a timer wake. Returns false when the next deadline is due too soon to arm for: the ISR
-// plays it now.
-__attribute__((noinline)) bool arm() {
-  const uint32_t now = now_locked();
-  uint32_t target = now + cfg::kWakeTicks;
-  if (g_active) {
-    const uint32_t head = g_order[0]->deadline;
-    if ((int32_t)(head - now) <= (int32_t)(cfg::kEarlyTicks + cfg::kMinLeadTicks)) return false;
-    if ((int32_t)(head - cfg::kEarlyTicks - now) <= (int32_t)cfg::kWakeTicks) target = head - cfg::kEarlyTicks;
-  }
-  g_armed = target;
-  OCR1A = (uint16_t)target;
-  TIFR1 = _BV(OCF1A);
-  return true;
-}
-
-// Called from: main loop, interrupts off. Makes sure the step ISR comes within kPostLeadTicks.
-void wake_soon() {
-  const uint32_t soon = now_locked() + cfg::kPostLeadTicks;
-  if ((int32_t)(g_armed - soon) > 0) {
-    g_armed = soon;
-    OCR1A = (uint16_t)soon;
-    TIFR1 = _BV(OCF1A);
-  }
-}
-
-// Called from: main loop. Leaves a period in motor mi's mailbox (to play from now on) and
-// makes sure the step ISR comes for it within kPostLeadTicks. Interrupts off for about 60
-// cycles.
-void post(uint8_t mi, uint32_t period_q8) {
-  Motor &m = g_motor[mi];
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    m.cmd_period_q8 = period_q8;
-    g_cmd_mask |= (uint8_t)(1u << mi);
-    wake_soon();
-  }
-}
-
-// An edge of another motor due sooner than this (ticks) keeps the main loop from starting a
-// motor itself (start_now): its critical sections (the check and the raise) would hold up the
-// step ISR, whose compare fires kEarlyTicks before that edge.
-const uint16_t kDirectClearTicks = cfg::kEarlyTicks + 600;
-
-// Called from: main loop, interrupts off. True when no edge is due within kDirectClearTicks:
-// neither the order's head nor a motor waiting for the step ISR's bookkeeping.
-bool clear_ahead(uint32_t now) {
-  if (g_active && (int32_t)(g_order[0]->deadline - now) < (int32_t)kDirectClearTicks) return false;
-  for (uint8_t i = 0; i < g_played_count; ++i)
-    if ((int32_t)(g_played[i]->next_rough - now) < (int32_t)kDirectClearTicks) return false;
-  return true;
-}
-
-// Called from: main loop (hal::set_period). Starts silent motor mi at once: the main loop sets
-// DIR (start_up), raises the first edge itself and leaves the motor to the step ISR as played,
-// whose bookkeeping schedules the next edge one period on. A note's onset then does not wait
-// for the step ISR to come for a posted command (kPostLeadTicks), its loop and
-// kStartLeadTicks: about 1,000 cycles (`test_e2e "link: a note starts*"`). Returns false when
-// the motor sounds or an edge is due within kDirectClearTicks: the caller posts the command
-// instead. When DIR turns, the first edge follows a pulse width later (2-10 us: every
-// supported driver's DIR set-up time, the TB6600's 5 us included).
-// The motor is claimed (g_claimed) from the first check to the hand-over: the step ISR leaves
-// it alone (it is in neither list, its mailbox is emptied, its queue entries wait), so only the
-// check and DIR, the raise, the lowering and the hand-over's list entry need interrupts off;
-// the DIR wait, the pulse and the 32-bit stores run with them on (all in one critical
-// section, interrupts stayed off 341 cycles on the Uno, 428 on the Mega: over the ~15 us the
-// UART's two bytes allow). Measured: `irq_off_max_cycles` in build/e2e/link-onset-<board>.csv.
-static_assert(cfg::kPulseUsMax * (F_CPU / 1000000ul) < 256u, "start_now: DIR set-up is timed on TCNT1L");
-bool start_now(uint8_t mi, uint32_t period_q8) {
-  Motor &m = g_motor[mi];
-  const uint8_t bit = (uint8_t)(1u << mi);
-  const bool up = start_up(m);  // a torn read only if the motor sounds: checked below
-  bool turned;
-  uint16_t raised = 0;
-  uint32_t now = 0;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    now = now_locked();
-    if (m.period_q8 != 0 || !clear_ahead(now)) return false;
-    g_claimed |= bit;
-    g_cmd_mask &= (uint8_t)~bit;  // an older command for it is superseded
-    turned = set_dir(m, up);
-    if (!turned) {
-      *m.step_port |= m.step_mask;
-      raised = TCNT1;
+// Arms channel m for the edge at board time d and clears its busy bit. Returns false when d is
+// too close to be sure the compare fires (the caller raises the edge itself, still busy). When
+// d is a timer wrap or more away, bit m of GPIOR0 and g_wraps make the stub count the matches
+// before it instead of raising. Called from: the motor's own context (its handler, or the main
+// loop while the motor is silent), busy. Interrupts off at most about 30 cycles at a time.
+template <uint8_t M> bool arm(uint32_t d) {
+  typedef Chan<M> C;
+  const int32_t est = (int32_t)(d - now());
+  if (est <= (int32_t)cfg::kArmGuardTicks) return false;
+  const typename C::Value v = C::value(d);
+  if (C::read() != v) {  // a new value (an unchanged one, at a visit, keeps its flag)
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      C::settle();
+      C::write(v);
+      // A flag now is the old value's (or a match of the new one just due: d then came, which
+      // the check below finds): let it in while still busy, it returns at once. (The virtual
+      // board takes a waiting interrupt two instructions after sei, and another channel's may
+      // go first.)
+      while (C::waiting()) {
+        sei();
+        __asm__ __volatile__("nop\n\tnop\n\tnop");
+        cli();
+      }
     }
   }
-  if (turned) {
-    // The low byte alone: a 16-bit read with interrupts on could take a nested ISR's high
-    // byte (the timer's shared TEMP register); pulse_ticks <= 160.
-    const uint8_t t = TCNT1L;
-    while ((uint8_t)(TCNT1L - t) < (uint8_t)m.pulse_ticks) {
+  // How many of the channel's matches come before d's own: its stub counts them down in
+  // g_wraps (bit m of GPIOR0 set while any are left). Counted from the channel itself (the time
+  // to its next match): Timer1 and Timer3 from est (half a 4 ms wrap covers the ISR being held
+  // up since), Timer2 on the 16-bit timer from d; further than that reaches (kFineTicks), the
+  // count is rough and ends kRoughSpareWraps early in the handler, which counts again. The
+  // timer is read with interrupts off, the count worked out with them on, and set with them
+  // off again if no match came in between (the time to the next one has not grown).
+  const uint16_t d16 = (uint16_t)d;
+  // rough: the matches to count before the handler's next visit (after them, the next match
+  // enters it: kRoughVisit for that one at once); 0: an exact count.
+  uint8_t rough = 0;
+  if (C::kWrap < 65536ul && est >= (int32_t)kFineTicks) {
+    const uint32_t wraps = (uint32_t)est / C::kWrap;  // at most one more comes before d's
+    rough = wraps > kRoughSpareWraps + 63u ? 63 : wraps > kRoughSpareWraps + 1u ? (uint8_t)(wraps - kRoughSpareWraps) : kRoughVisit;
+  }
+  const bool check_left = est < 32768;
+  const uint32_t half_on = (uint32_t)est + C::kWrap / 2;
+  for (;;) {
+    uint16_t t, u;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      t = TCNT1;
+      u = C::until();
+    }
+    const uint8_t n = rough ? 0xFF : C::count(half_on, d16, t, u);
+    // d came, or comes too soon to be sure of its match (it may come while busy, and return)
+    if ((check_left && (int16_t)(d16 - t) <= (int16_t)cfg::kArmGuardTicks) || (n == 0 && u <= cfg::kArmGuardTicks)) {
+      ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        g_wraps[M] = kWrapsVisit;  // a match of it only visits
+        GPIOR0 |= _BV(M);
+      }
+      return false;
     }
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      now = now_locked();
-      *m.step_port |= m.step_mask;
-      raised = TCNT1;
+      if (C::until() <= u) {  // no match since the read
+        if (rough) {
+          g_wraps[M] = rough == kRoughVisit ? kWrapsVisit : rough;
+          g_wraps_then[M] = kWrapsVisit;
+          GPIOR0 |= _BV(M);
+        } else if (n == 0) {
+          GPIOR0 &= (uint8_t)~_BV(M);
+        } else {
+          g_wraps[M] = n;
+          g_wraps_then[M] = 0;
+          GPIOR0 |= _BV(M);
+        }
+        busy_clear<M>();
+        return true;
+      }
     }
   }
-  // The pulse, with interrupts on (a nested ISR only makes it longer; the motor's next edge
-  // is scheduled only after the hand-over below).
-  const uint8_t r = (uint8_t)raised;
-  while ((uint8_t)(TCNT1L - r) < (uint8_t)m.pulse_ticks) {
+}
+
+// Motor m's handler after its stub: an edge (STEP was raised), or a visit (a command to take,
+// or a count the stub could not hold). Interrupts on throughout but for short critical
+// sections; the busy bit keeps the channel's own matches out while it runs. Called from:
+// SC_STEP_ENTRY (edge and visit); budget: a few hundred cycles (the pitch benchmark measures
+// its worst invocation, nested ISRs included).
+template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge) {
+  Motor &m = g_motor[M];
+  uint16_t raised;  // when STEP rose (ticks): the stub raised it kStubToHandlerTicks or more before
+  ATOMIC_BLOCK(ATOMIC_FORCEON) { raised = (uint16_t)(TCNT1 - kStubToHandlerTicks); }
+  uint8_t lowered = 0;
+  for (;;) {
+    if (edge) {
+      // The pulse first (a TB6600 asks 5 us: measured from the raise, it is about that), then
+      // the step's bookkeeping.
+      while ((uint8_t)(TCNT1L - (uint8_t)raised) < m.pulse_ticks) {
+      }
+      Step<M>::lower();
+      lowered = TCNT1L;
+      if ((int16_t)(raised - (uint16_t)m.deadline) > (int16_t)cfg::kLateTicks) g_late_edges = (uint16_t)(g_late_edges + 1);
+      account_step(m);
+      next_deadline(m);
+    }
+    if (m.cmd != kCmdNone) take_command(M, m);
+    if (m.period_q8 == 0) {
+      ATOMIC_BLOCK(ATOMIC_FORCEON) {
+        g_sounding &= (uint8_t)~_BV(M);
+        GPIOR0 &= (uint8_t)~_BV(M);
+      }
+      return;  // still busy: the channel's matches return at once until it starts again
+    }
+    if (arm<M>(m.deadline)) break;
+    // Due now or past (a visit came late, or the ISR was held up): raised here, late, STEP low
+    // a pulse width at least.
+    if (edge) {
+      while ((uint8_t)(TCNT1L - lowered) < m.pulse_ticks) {
+      }
+    }
+    ATOMIC_BLOCK(ATOMIC_FORCEON) {
+      Step<M>::raise();
+      raised = TCNT1;
+    }
+    edge = true;
   }
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { *m.step_port &= (uint8_t)~m.step_mask; }
-  m.deadline = now + (uint16_t)(raised - (uint16_t)now);
-  start_period(m, period_q8);
-  m.next_rough = m.deadline + (m.period_q8 >> 8);
+}
+
+// Called from: main loop, after a command was left in a sounding motor's mailbox. Brings
+// the channel's ISR within kTriggerLeadTicks, unless its next match is due within
+// kTriggerAfterTicks anyway (the visit re-arms the channel from the motor's next deadline).
+// Interrupts off for about 20 cycles.
+template <uint8_t M> void poke() {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_played[g_played_count++] = &m;  // silent and claimed, it was in neither list
-    g_claimed &= (uint8_t)~bit;
-    wake_soon();
+    if ((g_sounding & _BV(M)) && g_motor[M].cmd != kCmdNone) {
+      if (Chan<M>::ahead() > cfg::kTriggerAfterTicks) {
+        Chan<M>::trigger();  // a waiting match of the old value only visits too
+        g_wraps[M] = kWrapsVisit;
+        GPIOR0 |= _BV(M);
+      } else if (GPIOR0 & _BV(M)) {
+        g_wraps[M] = kWrapsVisit;  // the next match, one the stub would count, enters the handler
+      }  // else the next match is the edge's: its handler takes the command
+    }
   }
-  return true;
+}
+
+// Called from: main loop. Channel operations by motor index.
+struct Ops {
+  bool (*arm)(uint32_t);
+  void (*busy)();
+  void (*poke)();
+};
+template <uint8_t M> bool arm_m(uint32_t d) { return arm<M>(d); }
+template <uint8_t M> void busy_m() { _SFR_IO8(SC_BUSY_IO(M)) |= _BV(SC_BUSY_BIT(M)); }
+#define SC_OPS(M) {arm_m<M>, busy_m<M>, poke<M>}
+const Ops kOps[kMotors] = {
+    SC_OPS(0), SC_OPS(1), SC_OPS(2), SC_OPS(3),
+#if defined(__AVR_ATmega2560__)
+    SC_OPS(4),
+#endif
+};
+
+// Called from: main loop. Motor mi takes period now, or timed at `at`. A silent motor is
+// started here (its channel is off: nothing else touches it); a sounding one gets the command
+// in its mailbox, and its channel's ISR takes it within microseconds (poke). Interrupts off
+// at most about 30 cycles at a time.
+bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
+  Motor &m = g_motor[mi];
+  const uint8_t bit = (uint8_t)(1u << mi);
+  for (;;) {
+    // An earlier command is taken within microseconds (unless the motor fell silent).
+    while (m.cmd != kCmdNone && (g_sounding & bit)) {
+    }
+    if (!(g_sounding & bit)) break;
+    m.cmd_period_q8 = period;  // the ISR reads the mailbox only once cmd is set
+    m.cmd_at = at;
+    bool posted = false;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      if (g_sounding & bit) {
+        m.cmd = timed ? kCmdTimed : kCmdLive;
+        posted = true;
+      }
+    }
+    if (posted) {
+      kOps[mi].poke();
+      return true;
+    }
+  }
+  m.cmd = kCmdNone;
+  const bool ok = apply(m, period, timed, at);
+  if (m.period_q8 == 0) return ok;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    g_sounding |= bit;  // its channel is busy while silent
+  }
+  while (!kOps[mi].arm(m.deadline)) m.deadline = now() + cfg::kStartLeadTicks;  // held up past it
+  return ok;
 }
 
 }  // namespace
+}  // namespace sched
+
+// Channel ISRs. Who: motor m's compare match. The stub returns at once while the motor's busy
+// bit is set. With bit m of GPIOR0 clear it raises STEP (13 cycles after the match), sets the
+// busy bit and jumps to the motor's handler, which turns interrupts back on as its first
+// instruction (interrupts off 19 cycles in all). With it set, the match comes before the
+// edge's: the stub counts it off g_wraps (about 30 cycles, interrupts off) and clears the bit
+// at the last, or enters the handler (kWrapsVisit).
+#define SC_STEP_ENTRY(M, VECT, RAISE_ASM)                                                               \
+  extern "C" void __vector_sc_edge##M(void) __attribute__((interrupt, used, externally_visible));        \
+  extern "C" void __vector_sc_visit##M(void) __attribute__((interrupt, used, externally_visible));       \
+  extern "C" void __vector_sc_edge##M(void) { sched::serve<M>(true); }                                 \
+  extern "C" void __vector_sc_visit##M(void) { sched::serve<M>(false); }                               \
+  ISR(VECT, ISR_NAKED) {                                                                               \
+    __asm__ __volatile__("sbic %[bio], %[bb]\n\t"                                                      \
+                         "reti\n\t"                                                                   \
+                         "sbic %[gp], %[m]\n\t"                                                        \
+                         "rjmp 2f\n\t" RAISE_ASM                                                       \
+                         "sbi %[bio], %[bb]\n\t"                                                       \
+                         "jmp %x[edge]\n\t"                                                            \
+                         "2:\n\t"                                                                     \
+                         "push r24\n\t"                                                               \
+                         "in r24, __SREG__\n\t"                                                       \
+                         "push r24\n\t"                                                               \
+                         "lds r24, %[wraps]\n\t"                                                      \
+                         "sbrc r24, 7\n\t"                                                            \
+                         "rjmp 4f\n\t"                                                                \
+                         "dec r24\n\t"                                                                \
+                         "sts %[wraps], r24\n\t"                                                      \
+                         "brne 3f\n\t"                                                                \
+                         "lds r24, %[then]\n\t"                                                       \
+                         "sts %[wraps], r24\n\t"                                                      \
+                         "sbrs r24, 7\n\t"                                                            \
+                         "cbi %[gp], %[m]\n\t"                                                         \
+                         "3:\n\t"                                                                     \
+                         "pop r24\n\t"                                                                \
+                         "out __SREG__, r24\n\t"                                                      \
+                         "pop r24\n\t"                                                                \
+                         "reti\n\t"                                                                   \
+                         "4:\n\t"                                                                     \
+                         "pop r24\n\t"                                                                \
+                         "out __SREG__, r24\n\t"                                                      \
+                         "pop r24\n\t"                                                                \
+                         "sbi %[bio], %[bb]\n\t"                                                       \
+                         "jmp %x[visit]\n\t" ::[gp] "I"(_SFR_IO_ADDR(GPIOR0)),                          \
+                         [m] "I"(M), [bio] "I"(SC_BUSY_IO(M)), [bb] "I"(SC_BUSY_BIT(M)),                   \
+                         [wraps] "i"(&sched::g_wraps[M]), [then] "i"(&sched::g_wraps_then[M]), [visit] "i"(__vector_sc_visit##M),              \
+                         [edge] "i"(__vector_sc_edge##M));                                                \
+  }
+#define SC_RAISE_IO(PORT, BIT) "sbi " #PORT ", " #BIT "\n\t"
+#define SC_IO(PORT) _SFR_IO_ADDR(PORT)
+#if defined(__AVR_ATmega2560__)
+// PORTF 0x11, PORTA 0x02, PORTC 0x08 (I/O addresses); PORTL at 0x10B (data space).
+static_assert(_SFR_IO_ADDR(PORTF) == 0x11 && _SFR_IO_ADDR(PORTA) == 0x02 && _SFR_IO_ADDR(PORTC) == 0x08, "ports");
+SC_STEP_ENTRY(0, TIMER1_COMPA_vect, SC_RAISE_IO(0x11, 0))
+SC_STEP_ENTRY(1, TIMER1_COMPB_vect, SC_RAISE_IO(0x11, 6))
+SC_STEP_ENTRY(2, TIMER1_COMPC_vect,
+              "push r24\n\tin r24, __SREG__\n\tpush r24\n\tlds r24, 0x10B\n\tori r24, 0x08\n\tsts 0x10B, r24\n\t"
+              "pop r24\n\tout __SREG__, r24\n\tpop r24\n\t")
+SC_STEP_ENTRY(3, TIMER3_COMPA_vect, SC_RAISE_IO(0x02, 4))
+SC_STEP_ENTRY(4, TIMER3_COMPB_vect, SC_RAISE_IO(0x08, 1))
+#else
+// PORTD 0x0B, PORTB 0x05 (I/O addresses).
+static_assert(_SFR_IO_ADDR(PORTD) == 0x0B && _SFR_IO_ADDR(PORTB) == 0x05, "ports");
+SC_STEP_ENTRY(0, TIMER1_COMPA_vect, SC_RAISE_IO(0x0B, 2))
+SC_STEP_ENTRY(1, TIMER1_COMPB_vect, SC_RAISE_IO(0x0B, 3))
+SC_STEP_ENTRY(2, TIMER2_COMPA_vect, SC_RAISE_IO(0x0B, 4))
+SC_STEP_ENTRY(3, TIMER2_COMPB_vect, SC_RAISE_IO(0x05, 4))
+#endif
+
+// Timer0 compare A. Who: every 16,384 ticks (Timer0 counts ticks / 64; Arduino's millis()
+// tick, its overflow, stays off). Moves board time's base on, so that Timer1's 16-bit count
+// extends to 32 bits (about 40 cycles, interrupts on but for the two reads and the store).
+ISR(TIMER0_COMPA_vect, ISR_NOBLOCK) {
+  const uint32_t t = sched::now();
+  ATOMIC_BLOCK(ATOMIC_FORCEON) { sched::g_time_base = t; }
+}
+
+namespace sched {
 
 void init(uint8_t motor_count, const Wiring *wiring) {
-  g_count = motor_count;
   for (uint8_t i = 0; i < motor_count; ++i) {
     Motor &m = g_motor[i];
     const Wiring &w = wiring[i];
@@ -664,8 +707,6 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     pio::output(w.dir, true);
     pio::input(w.min_switch, true);
     pio::input(w.max_switch, true);
-    m.step_port = pio::port_reg(w.step.port);
-    m.step_mask = pio::mask(w.step);
     m.dir_port = pio::port_reg(w.dir.port);
     m.dir_mask = pio::mask(w.dir);
     m.sw_up_pin = w.max_switch.wired() ? pio::pin_reg(w.max_switch.port) : 0;
@@ -674,27 +715,64 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     m.sw_down_mask = pio::mask(w.min_switch);
     m.flags = kUp | kArmed;
     m.period_q8 = 0;
-    m.pulse_ticks = (uint16_t)(cfg::kPulseUsA4988 * (F_CPU / 1000000ul));
+    m.pulse_ticks = (uint8_t)(cfg::kPulseUsA4988 * (F_CPU / 1000000ul));
     Motion motion = {cfg::kDefaultTravelSteps, m.pulse_ticks, false, 0, 0};
     set_motion(i, motion);
   }
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_active = 0;
-    g_played_count = 0;
-    g_cmd_mask = 0;
-    TCCR1A = 0;               // normal mode: simavr times it exactly (phase-correct PWM it does not)
-    TCCR1B = _BV(CS10);       // no prescaler
+    g_sounding = 0;
+    GPIOR0 = 0;
+    for (uint8_t i = 0; i < kMotors; ++i) kOps[i].busy();  // silent: every match returns at once
+    // Normal mode (simavr times it exactly; phase-correct PWM, which Arduino's init() sets, it
+    // does not), the prescalers held and reset so that the timers count in step.
+    GTCCR = _BV(TSM) | _BV(PSRASY) | _BV(PSRSYNC);
+    TCCR1A = 0;
+    TCCR1B = _BV(CS10);  // CPU cycles
     TCCR1C = 0;
     TCNT1 = 0;
-    g_armed = 0;
-    arm();
-    TIMSK1 = _BV(OCIE1A);
+#if defined(__AVR_ATmega2560__)
+    TCCR3A = 0;
+    TCCR3B = _BV(CS30);
+    TCCR3C = 0;
+    TCNT3 = 0;
+#else
+    TCCR2A = 0;
+    TCCR2B = _BV(CS21);  // CPU cycles / 8
+    TCNT2 = 0;
+#endif
+    GTCCR = 0;
+    // How the other timer stands against Timer1 (both started on the same cycle on a real
+    // chip; an emulator may start them a few cycles apart).
+#if defined(__AVR_ATmega2560__)
+    const uint16_t t1 = TCNT1;
+    const uint16_t t3 = TCNT3;  // read 4 cycles after TCNT1's low byte
+    g_skew3 = (uint16_t)(t3 - t1 - 4);
+#else
+    const uint16_t t1 = TCNT1;
+    const uint8_t t2 = TCNT2;  // read 4 cycles after TCNT1's low byte
+    g_skew2 = (uint8_t)(t2 - (uint8_t)((uint16_t)(t1 + 4) >> 3));
+#endif
+    g_time_base = 0;
+    // Every channel's interrupt stays on from here (a silent motor's matches return at once):
+    // the virtual board never takes a flag raised while its interrupt was off.
+#if defined(__AVR_ATmega2560__)
+    TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B) | _BV(OCIE1C);
+    TIMSK3 = _BV(OCIE3A) | _BV(OCIE3B);
+#else
+    TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
+    TIMSK2 = _BV(OCIE2A) | _BV(OCIE2B);
+#endif
+    TCCR0A = 0;
+    TCCR0B = _BV(CS01) | _BV(CS00);  // ticks / 64: a compare every 16,384 ticks
+    OCR0A = 0;
+    TIFR0 = _BV(OCF0A);
+    TIMSK0 = _BV(OCIE0A);
   }
 }
 
 void set_motion(uint8_t mi, const Motion &motion) {
   Motor &m = g_motor[mi];
-  // Work out the new limits first: interrupts stay off only for the stores.
+  // Work out the new limits first: interrupts are off only for the stores.
   const bool limits = motion.travel_steps != 0;
   const int32_t hi = (int32_t)motion.travel_steps + (m.sw_up_pin ? cfg::kSoftMarginSteps : 0);
   const int32_t lo = -(int32_t)(m.sw_down_pin ? cfg::kSoftMarginSteps : 0);
@@ -705,8 +783,8 @@ void set_motion(uint8_t mi, const Motion &motion) {
   uint8_t set = limits ? kLimits : 0, clear = limits ? 0 : kLimits;
   if (motion.switch_active_high) set |= kActiveHigh;
   else clear |= kActiveHigh;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    m.pulse_ticks = motion.pulse_ticks;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {  // the motor's ISR reads them (about 60 cycles)
+    m.pulse_ticks = (uint8_t)motion.pulse_ticks;
     m.start_q8 = motion.start_period_q8;
     m.ramp_q8 = motion.ramp_q8;
     m.flags = (uint8_t)((m.flags & ~clear) | set);
@@ -717,166 +795,54 @@ void set_motion(uint8_t mi, const Motion &motion) {
   }
 }
 
-void main_loop_alive() {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_main_pass = now_locked();
-    g_isr_busy = 0;
-  }
-}
-
-void rescue_missed_compare() {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const int16_t past = (int16_t)(TCNT1 - (uint16_t)g_armed);
-    if (past > (int16_t)cfg::kRescueTicks) {  // the compare should have fired long ago
-      g_armed = now_locked() + cfg::kMinLeadTicks;
-      OCR1A = (uint16_t)g_armed;
-      TIFR1 = _BV(OCF1A);
-      g_late_edges = (uint16_t)(g_late_edges + 1);  // what it was armed for comes late
+void poll() {
+  while (g_q_used) {
+    const AtSlot &e = g_q[g_q_take_idx];
+    const int32_t ahead = (int32_t)(e.at - now());
+    if (ahead > (int32_t)cfg::kTakeTicks) return;
+    const Motor &m = g_motor[e.motor];
+    // A motor holding a timed change still to come takes the next once that is its next edge.
+    if ((m.flags & kRestrike) && ahead > (int32_t)cfg::kStartLeadTicks) return;
+    const AtSlot slot = e;
+    g_q_take_idx = (uint8_t)(g_q_take_idx + 1 == cfg::kQueueSize ? 0 : g_q_take_idx + 1);
+    --g_q_used;
+    if (!command(slot.motor, slot.period_q8, true, slot.at)) {
+      g_late_motor = slot.motor;
+      g_late_entries = (uint8_t)(g_late_entries + 1);
     }
   }
 }
 
 void silence_all() {
+  // Busy first (each an atomic sbi): no handler runs while the main loop does, and none enters
+  // from here on; then the rest with interrupts on.
+  for (uint8_t i = 0; i < kMotors; ++i) kOps[i].busy();
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_active = 0;
-    g_played_count = 0;  // between ISR invocations: only motors start_now just started
-    g_cmd_mask = 0;
-    for (uint8_t i = 0; i < g_count; ++i) {
-      g_motor[i].period_q8 = 0;
-      g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike);
-    }
-    g_q_taken = g_q_put;  // the queue's entries with them
-    g_q_take_idx = g_q_put_idx;
+    g_sounding = 0;
+    GPIOR0 &= (uint8_t)~((1u << kMotors) - 1u);  // no visits
   }
+  for (uint8_t i = 0; i < kMotors; ++i) {
+    g_motor[i].period_q8 = 0;
+    g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike);
+    g_motor[i].cmd = kCmdNone;
+  }
+  g_q_used = 0;  // the queue's entries with them
+  g_q_take_idx = g_q_put_idx;
 }
-
 
 }  // namespace sched
 
-// Step ISR. Who: Timer1 compare A, kEarlyTicks before each deadline, every 2 ms to extend the
-// timer, or kPostLeadTicks after the main loop posted a command. It masks itself and runs with
-// interrupts on (the UART nests freely) except from kCliLeadTicks before each edge until it
-// is raised. Work comes in small pieces (one motor's rescheduling and step bookkeeping, one
-// command), each started only when no edge is due within kBookkeepTicks / kSoonTicks: a played
-// motor first, as its own next edge may follow soon. It returns when nothing is left to do and
-// the next edge is far enough to come back for it.
-// Measured on the virtual board (tools/bench/run-bench.sh, bench/results/pitch-<board>.md):
-// interrupts off at most 237 cycles (uno) / 243 (mega), from the last cli below before it
-// returns (236 / 242 at its entry before it held the transmitter off), also
-// with frames back to back at full line speed (a burst's runs stay under that: kCliLeadTicks +
-// kMaxOffTicks + a raise); one invocation up to 18,673 cycles (uno) / 15,189 (mega) with
-// interrupts on, while four or five motors play (25,500 at full line speed); CPU load 40 % (uno) / 50 % (mega) with every
-// motor sounding, much of it waiting for edges with interrupts on (kEarlyTicks).
-ISR(TIMER1_COMPA_vect) {
-  using namespace sched;
-  // Idle (no motor sounds, nothing posted or queued): only the 16-bit timer's extension, every
-  // kWakeTicks. Kept short (the loop below took about 400 cycles for it): a note's frame that
-  // came meanwhile waited that long (`test_e2e "link: a note starts*"`: p99 with 500 notes).
-  if (!g_active && !g_played_count && !g_cmd_mask && g_q_put == g_q_taken) {
-    const uint32_t now = now_locked();
-    g_armed = now + cfg::kWakeTicks;
-    OCR1A = (uint16_t)g_armed;
-    g_isr_busy += kIsrEntryExitTicks;
-    return;
-  }
-  TIMSK1 &= (uint8_t)~_BV(OCIE1A);  // no re-entry, however long the loop below runs
-  sei();
-  uint8_t tx = link::hold_tx();  // a reply waits for the return (link.h)
-  const uint16_t entered = TCNT1;
-  const uint8_t rx_entered = link::rx_head();
-  for (;;) {
-    const uint32_t now = now_locked();  // nested ISRs touch neither TCNT1 nor g_armed
-    g_armed = now;  // keep the 16-bit extension fresh however long the loop runs
-    // Overload: kMaxInvocationTicks into this invocation, or when the main loop has not begun a
-    // pass for 8 * kMaxIsrTicks and this ISR took 3/4 of that time, the ISR stops waiting for
-    // edges (it plays only those already due) and returns as soon as its work is done,
-    // leaving the main loop kMainSliceTicks. Edges are then late, but frames, stop-all and the
-    // watchdog keep working. (With every motor near the top of its range the ISR returns
-    // often, but into gaps that leave the main loop a few cycles each: counted per invocation
-    // only, a pass of the main loop took up to 16 ms and clock replies stopped for seconds. A
-    // main loop busy with frames at full line speed must not get slices: after 2-4 ms they
-    // made edges late in `test_e2e "*frames at full speed"` one run in five; the receive ISR's
-    // bytes nested in this one do not count as its time.)
-    const uint16_t in_isr = (uint16_t)(TCNT1 - entered);
-    const uint32_t since_main = now - g_main_pass;
-    const bool overdue = in_isr > cfg::kMaxInvocationTicks ||
-                         (since_main > 8ul * cfg::kMaxIsrTicks && g_isr_busy + own_ticks(in_isr, rx_entered) > since_main - (since_main >> 2));
-    const AtSlot *entry = entry_due(now);
-    // An entry close to its time goes before any edge not yet due (with every motor high,
-    // edges are close all the time and it would wait until too late), once the played motors'
-    // bookkeeping is done (a played motor is in neither list: apply() would put it in the order
-    // twice); meanwhile only edges already due are played.
-    const bool urgent = entry && (int32_t)(entry->at - now) < (int32_t)cfg::kTakeUrgentTicks;
-    if (urgent && !g_played_count) {
-      take_one(entry);
-      continue;
-    }
-    if (g_active) {
-      // Wait for the edge when the next piece of work might not fit before it, or, with no
-      // work left, when it is too close to return and come back for it. A played motor's
-      // bookkeeping comes first whenever it fits: its own next edge may follow soon. A live
-      // command waits for close edges only kCmdWaitTicks into the invocation (with every motor
-      // high an edge is always close); a due entry has until it is urgent (above).
-      // While UART bytes come in, the receive ISR (up to 30 % of the CPU) stretches the
-      // bookkeeping and the burst's plan: it starts only further from the head (the UART state
-      // is read only when a played motor waits; a full ring counts as bytes coming in, see
-      // rx_full; the transmit ISR is held off, see hold_tx).
-      const int32_t ahead = (int32_t)(g_order[0]->deadline - now);
-      const uint16_t wait_within = overdue || urgent ? 0
-                                   : g_played_count    ? (link::rx_head() != rx_entered || link::rx_full()
-                                                              ? cfg::kBookkeepBusyTicks
-                                                              : cfg::kBookkeepTicks)
-                                   : g_cmd_mask        ? (in_isr > cfg::kCmdWaitTicks ? 0 : cfg::kSoonTicks)
-                                   : entry             ? cfg::kSoonTicks
-                                                       : cfg::kEarlyTicks + cfg::kMinLeadTicks;
-      if (ahead <= (int32_t)wait_within) {
-        burst();
-        continue;
-      }
-    }
-    if (g_played_count) {
-      bookkeep_one();
-    } else if (g_cmd_mask) {
-      apply_one();
-    } else if (entry) {
-      take_one(entry);
-    } else {
-      const uint16_t own = own_ticks((uint16_t)(TCNT1 - entered), rx_entered);  // before cli: it takes a while
-      link::release_tx(tx);  // before the cli: after it, it lengthened the ISR's longest interrupts-off stretch
-      cli();
-      if (overdue) {
-        g_armed = now_locked() + cfg::kMainSliceTicks;
-        OCR1A = (uint16_t)g_armed;
-        TIFR1 = _BV(OCF1A);
-      } else if (!arm()) {
-        sei();
-        tx = link::hold_tx();
-        continue;
-      }
-      TIMSK1 |= _BV(OCIE1A);
-      g_isr_busy += own + kIsrEntryExitTicks;
-      return;  // reti sets I again
-    }
-  }
-}
-
 namespace hal {
 
-uint32_t now_ticks() {
-  uint32_t t;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { t = sched::now_locked(); }
-  return t;
-}
+uint32_t now_ticks() { return sched::now(); }
 
 void set_period(uint8_t m, uint32_t period_q8) {
-  // A silent motor whose driver is awake starts at once (sched::start_now); a driver just
-  // woken gets the step ISR's start lead (kStartLeadTicks, 18.75 us: a TB6600 wants ENA 5 us
-  // before DIR).
-  if (period_q8 != sc::kPeriodSilent && !drivers::enable_for(m) && sched::start_now(m, period_q8)) return;
-  sched::post(m, period_q8);
+  // A driver just woken gets 5 us before DIR moves (a TB6600 wants ENA that long before DIR).
+  if (period_q8 != sc::kPeriodSilent && drivers::enable_for(m)) _delay_us(6);
+  sched::command(m, period_q8, false, 0);
 }
 
-uint8_t queue_used() { return (uint8_t)(sched::g_q_put - sched::g_q_taken); }
+uint8_t queue_used() { return sched::g_q_used; }
 
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
   if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
@@ -885,10 +851,8 @@ void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
   slot.period_q8 = period_q8;
   slot.motor = m;
   sched::g_q_put_idx = (uint8_t)(sched::g_q_put_idx + 1 == cfg::kQueueSize ? 0 : sched::g_q_put_idx + 1);
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    sched::g_q_put = (uint8_t)(sched::g_q_put + 1);  // the slot is the ISR's from here on
-    sched::wake_soon();  // an entry due before the ISR's next wake is taken in time
-  }
+  ++sched::g_q_used;
+  sched::poll();  // an entry due within kTakeTicks is taken at once
 }
 
 uint8_t late_entries(uint8_t *motor) {
@@ -901,13 +865,18 @@ uint8_t late_entries(uint8_t *motor) {
 }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const sched::Motor &mo = sched::g_motor[m];
-    out->position_steps = mo.position;
-    out->flags = (uint8_t)(((mo.flags & sched::kUp) ? sc::kMotorDirUp : 0) |
-                           (mo.period_q8 ? sc::kMotorSounding : 0) |
-                           ((mo.flags & sched::kFault) ? sc::kMotorEndstopFault : 0));
+  const sched::Motor &mo = sched::g_motor[m];
+  const uint8_t bit = (uint8_t)(1u << m);
+  int32_t position;
+  uint8_t flags, sounding;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {  // the motor's ISR writes them
+    position = mo.position;
+    flags = mo.flags;
+    sounding = sched::g_sounding;
   }
+  out->position_steps = position;
+  out->flags = (uint8_t)(((flags & sched::kUp) ? sc::kMotorDirUp : 0) | ((sounding & bit) ? sc::kMotorSounding : 0) |
+                         ((flags & sched::kFault) ? sc::kMotorEndstopFault : 0));
 }
 
 uint16_t reversals() {

@@ -1,35 +1,28 @@
-// scheduler.h: the step ISR. Every motor steps at its own period from one 16-bit timer
-// (Timer1, no prescaler: 1 tick = 1 CPU cycle = 62.5 ns at 16 MHz).
+// scheduler.h: motors step from timer compare channels, one channel per motor (Timer1 A/B
+// and Timer2 A/B on the Uno, Timer1 A/B/C and Timer3 A/B on the Mega); board time is Timer1,
+// counting CPU cycles (1 tick = 62.5 ns at 16 MHz), extended to 32 bits by its overflow.
 //
 // Deadlines are absolute: next edge = previous scheduled edge + period, with the period's
 // 8 fractional bits carried, so each motor's average frequency is exact to the crystal.
 //
 //   deadline(k+1) = deadline(k) + period_q8 / 256      (32-bit ticks + 8-bit fraction)
 //
-// The compare unit fires kEarlyTicks before the earliest deadline. The ISR masks itself and
-// runs with interrupts on; it turns them off only from kCliLeadTicks before an edge until the
-// STEP pin is raised, so every edge lands on its tick whichever way the ISR got there:
+// A channel's compare fires on its motor's deadline. Its ISR is a stub that raises STEP as its
+// first instruction and jumps to the motor's handler, which turns interrupts back on at once:
 //
-//   OCR1A match      cli          raise             lower (pulse over)
-//   |--- I on -------|-- I off ---|------ I on -----|
-//   STEP  ____________________________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________
+//   match   raise (12 cycles on)  sei               lower (pulse over)   next compare armed
+//   |-------|---------------------|--- I on: bookkeeping, other motors' ISRs nest ---|
+//   STEP  _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|______________________
 //
-// Motors due within kComebackTicks of the previous edge are played in the same burst, whose
-// raise times are planned before its first wait: edges closer than kWriteGapTicks (one pass of
-// the raise loop) share the difference, and raises close together run with interrupts off
-// from the first to the last, letting waiting interrupts in between them when they are
-// further apart than kCliLeadTicks (kBreatherTicks). Between
-// bursts the ISR does its other work in small pieces, each only when no edge is due within
-// kSoonTicks: a played motor's next deadline and sorted place, a step's position and endstop
-// bookkeeping (bounce-back, soft limits), a command the main loop left in a motor's mailbox,
-// a timestamped entry from the queue (hal::queue_at), taken 3 ms before its time so that it
-// starts or strikes its motor on the tick whatever the main loop is doing.
-// The main loop never touches the order itself: its critical sections stay short. It starts
-// a silent motor itself when no edge is near (its first edge raised at once, the motor left to
-// the ISR's bookkeeping), so that a live note's onset is not held up by the ISR's hand-over. When the
-// ISR has kept it from beginning a pass for 8 ms, taking 3/4 of the CPU, the ISR leaves it
-// slices (cfg::kMaxIsrTicks, kMaxInvocationTicks, kMainSliceTicks) and its edges fall late
-// instead.
+// So an edge is late only by what keeps interrupts off when it is due: another stub (15
+// cycles), a UART ISR's first part (about 26), a main-loop critical section (at most about 30).
+// The handler then does the step's bookkeeping (position, endstops, soft limits, reversal),
+// takes a command from the motor's mailbox, works out the next deadline and arms the compare.
+// A period longer than the channel's timer wrap visits the motor at each wrap without
+// raising (bit m of GPIOR0). The main loop starts a silent motor itself (its channel is off);
+// a sounding motor's command goes to its mailbox, and the main loop brings its ISR at once
+// (a visit). Timestamped entries are taken by the main loop (poll) kTakeTicks before their
+// time and strike their motor on the tick.
 // Measured on the virtual board: bench/results/pitch-<board>.md.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H
@@ -61,15 +54,8 @@ void init(uint8_t motor_count, const Wiring *wiring);
 // Called from: main loop. Replaces one motor's motion settings.
 void set_motion(uint8_t m, const Motion &motion);
 
-// Called from: main loop, at the start of every pass. Tells the step ISR the main loop runs
-// (its overload guard leaves it slices when it has not for 8 ms).
-void main_loop_alive();
-
-// Called from: main loop, every pass. Defence in depth: if the step ISR's compare is long
-// overdue (a compare armed closer than arm()'s own write-then-clear sequence is erased by the
-// clear: cfg::kMinLeadTicks), arms it again at once instead of waiting for the 16-bit timer to
-// come round (4 ms).
-void rescue_missed_compare();
+// Called from: main loop, every pass. Takes the timestamped entries due within kTakeTicks.
+void poll();
 
 // Called from: main loop. Silences every motor at once.
 void silence_all();

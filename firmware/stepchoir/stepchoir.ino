@@ -11,9 +11,9 @@ static cmd::Commands g_commands;
 // begun, each byte as it arrives (the wait for one: at most cfg::kByteWaitTicks). Returns how
 // many it took: from 64 on it stops between frames, and at 128 in any case (a stream of bytes
 // with no delimiter is one endless frame; the watchdog must still run).
-static inline uint8_t take_bytes() {
+static inline uint8_t take_bytes(uint16_t idle_passes) {
   uint8_t n = 0, b;
-  while (link::wait_byte(&b, g_commands.in_frame() ? link::wait_passes(cfg::kByteWaitTicks) : 0)) {
+  while (link::wait_byte(&b, g_commands.in_frame() ? link::wait_passes(cfg::kByteWaitTicks) : n == 0 ? idle_passes : 0)) {
     g_commands.on_byte(b);
     if (++n >= 64 && (!g_commands.in_frame() || n == 128)) break;
   }
@@ -36,9 +36,9 @@ void setup() {
 // stalls (a byte later than cfg::kByteWaitTicks) for at most cfg::kDeferPasses passes and
 // cfg::kDeferBytes bytes in a row.
 void loop() {
-  sched::main_loop_alive();
+  sched::poll();
   static uint8_t deferred_passes = 0, deferred_bytes = 0;
-  const uint8_t n = take_bytes();
+  const uint8_t n = take_bytes(link::wait_passes(cfg::kIdleWaitTicks));
   deferred_bytes = (uint8_t)(deferred_bytes + n > 255 ? 255 : deferred_bytes + n);
   if (g_commands.in_frame() && deferred_passes < cfg::kDeferPasses && deferred_bytes < cfg::kDeferBytes) {
     ++deferred_passes;
@@ -47,6 +47,5 @@ void loop() {
   deferred_passes = 0;
   deferred_bytes = 0;
   g_commands.poll();
-  take_bytes();
-  sched::rescue_missed_compare();
+  take_bytes(0);
 }
