@@ -1,6 +1,7 @@
 // scheduler.h: motors step from timer compare channels, one channel per motor (Timer1 A/B
 // and Timer2 A/B on the Uno, Timer1 A/B/C and Timer3 A/B on the Mega); board time is Timer1,
-// counting CPU cycles (1 tick = 62.5 ns at 16 MHz), extended to 32 bits by its overflow.
+// counting CPU cycles (1 tick = 62.5 ns at 16 MHz), extended to 32 bits from a base that
+// Timer0's compare moves on.
 //
 // Deadlines are absolute: next edge = previous scheduled edge + period, with the period's
 // 8 fractional bits carried, so each motor's average frequency is exact to the crystal.
@@ -8,22 +9,24 @@
 //   deadline(k+1) = deadline(k) + period_q8 / 256      (32-bit ticks + 8-bit fraction)
 //
 // A channel's compare fires on its motor's deadline. Its ISR is a stub that raises STEP as its
-// first instruction and jumps to the motor's handler, which turns interrupts back on at once:
+// third instruction and jumps to the motor's handler, which turns interrupts back on at once:
 //
-//   match   raise (12 cycles on)  sei               lower (pulse over)   next compare armed
-//   |-------|---------------------|--- I on: bookkeeping, other motors' ISRs nest ---|
-//   STEP  _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|______________________
+//   match   raise (13 cycles on)  sei      lower (pulse over)   bookkeeping, next compare armed
+//   |-------|---------------------|--- I on: other motors' ISRs nest in the handler ---|
+//   STEP  _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________________________
 //
-// So an edge is late only by what keeps interrupts off when it is due: another stub (15
-// cycles), a UART ISR's first part (about 26), a main-loop critical section (at most about 30).
-// The handler then does the step's bookkeeping (position, endstops, soft limits, reversal),
-// takes a command from the motor's mailbox, works out the next deadline and arms the compare.
-// A period longer than the channel's timer wrap visits the motor at each wrap without
-// raising (bit m of GPIOR0). The main loop starts a silent motor itself (its channel is off);
-// a sounding motor's command goes to its mailbox, and the main loop brings its ISR at once
-// (a visit). Timestamped entries are taken by the main loop (poll) kTakeTicks before their
-// time and strike their motor on the tick.
-// Measured on the virtual board: bench/results/pitch-<board>.md.
+// So an edge is late only by what keeps interrupts off when it is due: another stub (19
+// cycles; 32-39 when it counts off a match), a UART ISR's first part (about 26), a critical
+// section of the main loop or a handler (at most about 30).
+// The handler lowers STEP once the pulse is over, then does the step's bookkeeping (position,
+// endstops, soft limits, reversal), takes a command from the motor's mailbox, works out the
+// next deadline and arms the compare. The matches a long period's deadline is a timer wrap or
+// more away from are counted off by the stub (bit m of GPIOR0 set while any are left). The
+// main loop starts a silent motor itself (its channel is busy: every match returns at once);
+// a sounding motor's command goes to its mailbox, and the main loop brings its ISR for it
+// (poke). Timestamped entries are taken by the main loop (poll) kTakeTicks before their time
+// and strike their motor on the tick.
+// Measured on the virtual board: bench/results/pitch-<board>.md, docs/ARCHITECTURE.md.
 #ifndef STEPCHOIR_SCHEDULER_H
 #define STEPCHOIR_SCHEDULER_H
 
