@@ -36,7 +36,7 @@ const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 }  // namespace
 
 // UART receive ISR. Who: a byte arrived (every 10 us at most). Assembly, and interrupts on
-// after its first 26 cycles (entry included): a STEP edge due meanwhile waits at most that
+// after its first 26 cycles (entry included, by its instruction count): a STEP edge due meanwhile waits at most that
 // long. With interrupts off it reads the byte and reserves its slot in the ring (the ring's
 // order is the bytes' order even when a later byte's ISR nests in this one; the main loop,
 // the only reader, runs only when no ISR does); then it stores the byte, or a frame delimiter
@@ -89,7 +89,8 @@ ISR(SC_UART_RX_VECT, ISR_NAKED) {
 
 // UART data-register-empty ISR. Who: the transmitter wants a byte (every 10 us while a reply
 // goes out). Assembly: it turns its own interrupt off and interrupts on after 17 cycles
-// (entry included), sends the next byte, and turns its interrupt back on while bytes remain.
+// (entry included, by its instruction count), sends the next byte, and turns its interrupt
+// back on while bytes remain.
 ISR(SC_UART_UDRE_VECT, ISR_NAKED) {
   __asm__ __volatile__(
       "push r24\n\t"

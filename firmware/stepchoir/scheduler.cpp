@@ -163,34 +163,23 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
   }
 }
 
-#define SC_CHAN_T1(M, X, SIBS)                                                                  \
-  template <> struct Chan<M> {                                                              \
-    static const uint32_t kWrap = 65536ul;                                                  \
-    typedef uint16_t Value;                                                                 \
-    static inline Value value(uint32_t d) { return (uint16_t)d; }                           \
-    static inline Value read() { return OCR1##X; }                                          \
-    static inline void write(Value v) { OCR1##X = v; }                                      \
-    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR1##X + 1 - TCNT1); return a ? a : 0xFFFF; } \
+// Timer1 or Timer3 (N), compare X; SKEW: the timer's count less Timer1's (0 for Timer1).
+#define SC_CHAN_16(M, N, X, SKEW, SIBS)                                                          \
+  template <> struct Chan<M> {                                                                   \
+    static const uint32_t kWrap = 65536ul;                                                       \
+    typedef uint16_t Value;                                                                      \
+    static inline Value value(uint32_t d) { return (uint16_t)((uint16_t)d + (SKEW)); }           \
+    static inline Value read() { return OCR##N##X; }                                             \
+    static inline void write(Value v) { OCR##N##X = v; }                                         \
+    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR##N##X + 1 - TCNT##N); return a ? a : 0xFFFF; } \
     static inline uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
-    static inline void settle() { SIBS }                                                   \
-    static inline bool waiting() { return TIFR1 & _BV(OCF1##X); }                           \
-    static inline uint16_t ahead() { return (uint16_t)(OCR1##X - TCNT1); }                  \
-    static inline void trigger() { SIBS OCR1##X = (uint16_t)(TCNT1 + cfg::kTriggerLeadTicks); } \
+    static inline void settle() { SIBS }                                                         \
+    static inline bool waiting() { return TIFR##N & _BV(OCF##N##X); }                            \
+    static inline uint16_t ahead() { return (uint16_t)(OCR##N##X - TCNT##N); }                   \
+    static inline void trigger() { SIBS OCR##N##X = (uint16_t)(TCNT##N + cfg::kTriggerLeadTicks); } \
   };
-#define SC_CHAN_T3(M, X, SIBS)                                                                     \
-  template <> struct Chan<M> {                                                                 \
-    static const uint32_t kWrap = 65536ul;                                                     \
-    typedef uint16_t Value;                                                                    \
-    static inline Value value(uint32_t d) { return (uint16_t)((uint16_t)d + g_skew3); }        \
-    static inline Value read() { return OCR3##X; }                                             \
-    static inline void write(Value v) { OCR3##X = v; }                                         \
-    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR3##X + 1 - TCNT3); return a ? a : 0xFFFF; } \
-    static inline uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
-    static inline void settle() { SIBS }                                                      \
-    static inline bool waiting() { return TIFR3 & _BV(OCF3##X); }                              \
-    static inline uint16_t ahead() { return (uint16_t)(OCR3##X - TCNT3); }                     \
-    static inline void trigger() { SIBS OCR3##X = (uint16_t)(TCNT3 + cfg::kTriggerLeadTicks); } \
-  };
+#define SC_CHAN_T1(M, X, SIBS) SC_CHAN_16(M, 1, X, 0, SIBS)
+#define SC_CHAN_T3(M, X, SIBS) SC_CHAN_16(M, 3, X, g_skew3, SIBS)
 #define SC_CHAN_T2(M, X, SIBS)                                                                        \
   template <> struct Chan<M> {                                                                    \
     static const uint32_t kWrap = 2048ul;                                                         \
@@ -624,7 +613,7 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
 // Channel ISRs. Who: motor m's compare match. The stub returns at once while the motor's busy
 // bit is set. With bit m of GPIOR0 clear it raises STEP (13 cycles after the match), sets the
 // busy bit and jumps to the motor's handler, which turns interrupts back on as its first
-// instruction (interrupts off 19 cycles in all). With it set, the match comes before the
+// instruction (interrupts off 19 cycles in all, by the instruction count). With it set, the match comes before the
 // edge's: the stub counts it off g_wraps (about 30 cycles, interrupts off) and clears the bit
 // at the last, or enters the handler (kWrapsVisit).
 #define SC_STEP_ENTRY(M, VECT, RAISE_ASM)                                                               \
