@@ -1,4 +1,5 @@
-// link.cpp: UART0 driver: receive ISR -> ring -> main loop; main loop -> ring -> UDRE ISR.
+// link.cpp: UART0 driver: receive ISR -> ring -> main loop; main loop -> ring -> UART (fed by
+// the main loop, link::feed_tx()).
 #include "link.h"
 
 #include <avr/interrupt.h>
@@ -10,10 +11,8 @@
 
 #if defined(USART0_RX_vect)
 #define SC_UART_RX_VECT USART0_RX_vect
-#define SC_UART_UDRE_VECT USART0_UDRE_vect
 #else
 #define SC_UART_RX_VECT USART_RX_vect
-#define SC_UART_UDRE_VECT USART_UDRE_vect
 #endif
 
 using link::detail::g_rx;
@@ -24,12 +23,15 @@ namespace link {
 namespace detail {
 volatile uint8_t g_rx[cfg::kRxRingBytes];
 volatile uint8_t g_rx_head, g_rx_tail;
+volatile uint8_t g_tx[cfg::kTxRingBytes];
+volatile uint8_t g_tx_head, g_tx_tail;
 }  // namespace detail
 }  // namespace link
 
 namespace {
-volatile uint8_t g_tx[cfg::kTxRingBytes];
-volatile uint8_t g_tx_head, g_tx_tail;
+using link::detail::g_tx;
+using link::detail::g_tx_head;
+using link::detail::g_tx_tail;
 volatile uint8_t g_rx_errors;  // bytes lost: hardware overrun, framing error or full ring (saturates)
 const uint8_t kRxMask = cfg::kRxRingBytes - 1;
 const uint8_t kTxMask = cfg::kTxRingBytes - 1;
@@ -87,54 +89,6 @@ ISR(SC_UART_RX_VECT, ISR_NAKED) {
       [tail] "i"(&g_rx_tail), [buf] "i"(g_rx), [mask] "M"(kRxMask), [errors] "i"(&g_rx_errors));
 }
 
-// UART data-register-empty ISR. Who: the transmitter wants a byte (every 10 us while a reply
-// goes out). Assembly: it turns its own interrupt off and interrupts on after 17 cycles
-// (entry included, by its instruction count), sends the next byte, and turns its interrupt
-// back on while bytes remain.
-ISR(SC_UART_UDRE_VECT, ISR_NAKED) {
-  __asm__ __volatile__(
-      "push r24\n\t"
-      "in r24, __SREG__\n\t"
-      "push r24\n\t"
-      "lds r24, %[ucsrb]\n\t"
-      "andi r24, %[noudrie]\n\t"
-      "sts %[ucsrb], r24\n\t"
-      "sei\n\t"
-      "push r25\n\t"
-      "push r30\n\t"
-      "push r31\n\t"
-      "lds r30, %[tail]\n\t"
-      "lds r25, %[head]\n\t"
-      "cp r30, r25\n\t"
-      "breq 1f\n\t"
-      "mov r25, r30\n\t"
-      "inc r25\n\t"
-      "andi r25, %[mask]\n\t"
-      "sts %[tail], r25\n\t"
-      "ldi r31, 0\n\t"
-      "subi r30, lo8(-(%[buf]))\n\t"
-      "sbci r31, hi8(-(%[buf]))\n\t"
-      "ld r24, Z\n\t"
-      "sts %[udr], r24\n\t"
-      "lds r30, %[head]\n\t"
-      "cp r25, r30\n\t"
-      "breq 1f\n\t"
-      "cli\n\t"
-      "lds r24, %[ucsrb]\n\t"
-      "ori r24, %[udrie]\n\t"
-      "sts %[ucsrb], r24\n\t"
-      "1:\n\t"
-      "pop r31\n\t"
-      "pop r30\n\t"
-      "pop r25\n\t"
-      "pop r24\n\t"
-      "out __SREG__, r24\n\t"
-      "pop r24\n\t"
-      "reti\n\t" ::[tail] "i"(&g_tx_tail),
-      [head] "i"(&g_tx_head), [buf] "i"(g_tx), [udr] "i"(_SFR_MEM_ADDR(UDR0)), [mask] "M"(kTxMask),
-      [ucsrb] "i"(_SFR_MEM_ADDR(UCSR0B)), [noudrie] "M"(0xFF & ~_BV(UDRIE0)), [udrie] "M"(_BV(UDRIE0)));
-}
-
 namespace link {
 
 void begin() {
@@ -142,6 +96,11 @@ void begin() {
   UCSR0A = 0;                // U2X0 clear: 16x sampling (and simavr times bytes right)
   UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);  // 8 data bits, no parity, 1 stop bit
   UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+  // A delimiter first: the host's decoder starts between frames whatever came before (a
+  // bootloader's bytes). The transmitter is then fed by polling UDRE0 (feed_tx), which the
+  // virtual board (simavr 1.6) first sets once a byte has been written: after a reset it reads
+  // clear there.
+  UDR0 = sc::kDelimiter;
 }
 
 }  // namespace link
@@ -157,7 +116,7 @@ void send(const uint8_t *payload, uint8_t len) {
     g_tx[g_tx_head] = frame[i];
     g_tx_head = (uint8_t)((g_tx_head + 1) & kTxMask);
   }
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { UCSR0B |= _BV(UDRIE0); }
+  link::feed_tx();
 }
 
 uint16_t uart_overruns() { return g_rx_errors; }

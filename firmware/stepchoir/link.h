@@ -1,5 +1,5 @@
 // link.h: UART0 at 1,000,000 baud (U2X clear, UBRR0 = 0: exact at 16 MHz, sampled 16x),
-// with interrupt-driven receive and transmit rings.
+// an interrupt-driven receive ring and a transmit ring the main loop feeds to the UART.
 #ifndef STEPCHOIR_LINK_H
 #define STEPCHOIR_LINK_H
 
@@ -14,13 +14,30 @@ namespace detail {
 // The receive ring (link.cpp): the receive ISR moves only the head, the main loop the tail.
 extern volatile uint8_t g_rx[cfg::kRxRingBytes];
 extern volatile uint8_t g_rx_head, g_rx_tail;
+// The transmit ring: hal::send() moves the head, feed_tx() the tail (both the main loop).
+extern volatile uint8_t g_tx[cfg::kTxRingBytes];
+extern volatile uint8_t g_tx_head, g_tx_tail;
 }  // namespace detail
 
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
 
-// Passes of wait_byte's loop (7 cycles each, longer when ISRs nest) that make about `ticks`.
-constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 7u); }
+// Called from: main loop (wait_byte's loop, after each byte the main loop takes, and send()).
+// Hands the UART the next byte of the transmit ring when its data register is empty. The
+// transmitter has no ISR: at 1,000,000 baud one took 70-85 cycles of every 160 while a reply
+// went out, on top of the receive ISR's 50, and held up the motors' handlers. Fed once a
+// received byte (or a wait loop's pass), a reply still goes out at the line's full speed.
+__attribute__((always_inline)) inline void feed_tx() {
+  const uint8_t tail = detail::g_tx_tail;
+  if (tail != detail::g_tx_head && (UCSR0A & _BV(UDRE0))) {
+    UDR0 = detail::g_tx[tail];
+    detail::g_tx_tail = (uint8_t)((tail + 1) & (cfg::kTxRingBytes - 1));
+  }
+}
+
+// Passes of wait_byte's loop (about 16 cycles each, longer when ISRs nest) that make about
+// `ticks`.
+constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 16u); }
 
 // Called from: main loop, while a frame is coming in. Takes the next received byte into out,
 // waiting for it at most max_passes passes of its loop (wait_passes); false when none came.
@@ -31,6 +48,7 @@ constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 7u); 
 __attribute__((always_inline)) inline bool wait_byte(uint8_t *out, uint16_t max_passes) {
   const uint8_t tail = detail::g_rx_tail;
   for (uint16_t passes = max_passes; detail::g_rx_head == tail;) {
+    feed_tx();
     if (passes-- == 0) return false;
   }
   *out = detail::g_rx[tail];

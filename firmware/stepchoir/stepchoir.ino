@@ -15,6 +15,7 @@ static inline uint8_t take_bytes(uint16_t idle_passes) {
   uint8_t n = 0, b;
   while (link::wait_byte(&b, g_commands.in_frame() ? link::wait_passes(cfg::kByteWaitTicks) : n == 0 ? idle_passes : 0)) {
     g_commands.on_byte(b);
+    link::feed_tx();  // a reply goes out a byte per byte received (or per wait pass)
     if (++n >= 64 && (!g_commands.in_frame() || n == 128)) break;
   }
   return n;
