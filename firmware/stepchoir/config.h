@@ -51,6 +51,10 @@ static const uint8_t kTxRingBytes = 128;
 // Uno's Timer2 counts cycles / 8 and may stand a tick off Timer1. Closer, the ISR raises the
 // edge itself (late).
 static const uint8_t kArmGuardTicks = 64;
+// ... and the channel's next match must still be this far ahead when its busy bit is cleared
+// (ticks): it then finds the channel free (the Uno's Timer2 may match up to 7 cycles before
+// the time its count says).
+static const uint8_t kArmFinalTicks = 16;
 
 // A command for a sounding motor brings its channel's ISR (a visit) this soon (ticks), unless
 // the channel's next match is due within kTriggerAfterTicks anyway: the visit re-arms the

@@ -69,7 +69,8 @@ volatile uint8_t g_sounding;
 // command to take, or more matches than the count holds).
 volatile uint8_t g_wraps[kMotors];
 const uint8_t kWrapsVisit = 0x80;
-volatile uint8_t g_wraps_then[kMotors];  // g_wraps once the count is out: 0 (the edge next) or kWrapsVisit
+volatile uint8_t g_wraps_then[kMotors];
+  // g_wraps once the count is out: 0 (the edge next) or kWrapsVisit
 const uint16_t kFineTicks = 61440;       // arm() counts wraps exactly up to this far ahead
 const uint8_t kRoughSpareWraps = 16;     // ... and further, ends a rough count this early
 const uint8_t kRoughVisit = 0xFF;        // arm(): the handler at the next match
@@ -88,11 +89,7 @@ struct AtSlot {
 };
 AtSlot g_q[cfg::kQueueSize];
 uint8_t g_q_used, g_q_put_idx, g_q_take_idx;
-#if defined(__AVR_ATmega2560__)
-uint16_t g_skew3;  // TCNT3 - TCNT1 (cycles), set once at init
-#else
-uint8_t g_skew2;   // TCNT2 - TCNT1 / 8 (Timer2 ticks), set once at init
-#endif
+uint8_t g_skew2;  // TCNT2 - TCNT1 / 8 (Timer2 ticks), set once at init
 
 // A timed strike on a sounding motor replaces an old edge due less than this before its time:
 // both would sound as one doubled step (a note change on the old note's own grid, as in a
@@ -122,8 +119,8 @@ __attribute__((noinline)) uint32_t now() {
 // as its third instruction when bit m of GPIOR0 is clear, and otherwise counts off a match
 // that comes before the edge's (g_wraps) or enters the handler without raising (a command).
 //
-// Chan<m>: the channel's registers. Timer1 and Timer3 count CPU cycles (16 bits, a wrap every
-// 4.1 ms); the Uno's Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every 16-bit
+// Chan<m>: the channel's registers. Timer1 counts CPU cycles (16 bits, a wrap every
+// 4.1 ms); Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every 16-bit
 // register access runs with interrupts off (the timers' TEMP byte is shared).
 template <uint8_t M> struct Chan;
 
@@ -163,47 +160,48 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
   }
 }
 
-// Timer1 or Timer3 (N), compare X; SKEW: the timer's count less Timer1's (0 for Timer1).
-#define SC_CHAN_16(M, N, X, SKEW, SIBS)                                                          \
+#define SC_AI inline __attribute__((always_inline))
+// Timer1, compare X.
+#define SC_CHAN_T1(M, X, SIBS)                                                          \
   template <> struct Chan<M> {                                                                   \
     static const uint32_t kWrap = 65536ul;                                                       \
     typedef uint16_t Value;                                                                      \
-    static inline Value value(uint32_t d) { return (uint16_t)((uint16_t)d + (SKEW)); }           \
-    static inline Value read() { return OCR##N##X; }                                             \
-    static inline void write(Value v) { OCR##N##X = v; }                                         \
-    static inline uint16_t until() { const uint16_t a = (uint16_t)(OCR##N##X + 1 - TCNT##N); return a ? a : 0xFFFF; } \
-    static inline uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
-    static inline void settle() { SIBS }                                                         \
-    static inline bool waiting() { return TIFR##N & _BV(OCF##N##X); }                            \
-    static inline uint16_t ahead() { return (uint16_t)(OCR##N##X - TCNT##N); }                   \
-    static inline void trigger() { SIBS OCR##N##X = (uint16_t)(TCNT##N + cfg::kTriggerLeadTicks); } \
+    static SC_AI Value value(uint32_t d) { return (uint16_t)d; }                                 \
+    static SC_AI Value read() { return OCR1##X; }                                               \
+    static SC_AI void write(Value v) { OCR1##X = v; }                                           \
+    static SC_AI uint16_t until() { const uint16_t a = (uint16_t)(OCR1##X + 1 - TCNT1); return a ? a : 0xFFFF; } \
+    static SC_AI uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
+    static SC_AI void settle() { SIBS }                                                         \
+    static SC_AI bool waiting() { return TIFR1 & _BV(OCF1##X); }                                \
+    static SC_AI uint16_t ahead() { return (uint16_t)(OCR1##X - TCNT1); }                       \
+    static SC_AI void trigger() { SIBS OCR1##X = (uint16_t)(TCNT1 + cfg::kTriggerLeadTicks); }  \
   };
-#define SC_CHAN_T1(M, X, SIBS) SC_CHAN_16(M, 1, X, 0, SIBS)
-#define SC_CHAN_T3(M, X, SIBS) SC_CHAN_16(M, 3, X, g_skew3, SIBS)
 #define SC_CHAN_T2(M, X, SIBS)                                                                        \
   template <> struct Chan<M> {                                                                    \
     static const uint32_t kWrap = 2048ul;                                                         \
     typedef uint8_t Value;                                                                        \
-    static inline Value value(uint32_t d) { return (uint8_t)(((uint16_t)d >> 3) + g_skew2); }     \
-    static inline Value read() { return OCR2##X; }                                                \
-    static inline void write(Value v) { OCR2##X = v; }                                            \
-    static inline uint16_t until() { const uint8_t a = (uint8_t)(OCR2##X + 1 - TCNT2); return a ? (uint16_t)a << 3 : (uint16_t)kWrap; } \
-    static inline uint8_t count(uint32_t, uint16_t d16, uint16_t t, uint16_t u) { return (uint8_t)((uint16_t)(d16 - t - u + 1024u) >> 11); } \
-    static inline void settle() { SIBS }                                                         \
-    static inline bool waiting() { return TIFR2 & _BV(OCF2##X); }                                 \
-    static inline uint16_t ahead() { return (uint16_t)((uint8_t)(OCR2##X - TCNT2)) << 3; }        \
-    static inline void trigger() { SIBS OCR2##X = (uint8_t)(TCNT2 + (cfg::kTriggerLeadTicks >> 3)); } \
+    static SC_AI Value value(uint32_t d) { return (uint8_t)(((uint16_t)d >> 3) + g_skew2); }     \
+    static SC_AI Value read() { return OCR2##X; }                                                \
+    static SC_AI void write(Value v) { OCR2##X = v; }                                            \
+    static SC_AI uint16_t until() { const uint8_t a = (uint8_t)(OCR2##X + 1 - TCNT2); return a ? (uint16_t)a << 3 : (uint16_t)kWrap; } \
+    static SC_AI uint8_t count(uint32_t, uint16_t d16, uint16_t t, uint16_t u) { return (uint8_t)((uint16_t)(d16 - t - u + 1024u) >> 11); } \
+    static SC_AI void settle() { SIBS }                                                         \
+    static SC_AI bool waiting() { return TIFR2 & _BV(OCF2##X); }                                 \
+    static SC_AI uint16_t ahead() { return (uint16_t)((uint8_t)(OCR2##X - TCNT2)) << 3; }        \
+    static SC_AI void trigger() { SIBS OCR2##X = (uint8_t)(TCNT2 + (cfg::kTriggerLeadTicks >> 3)); } \
   };
 
 #if defined(__AVR_ATmega2560__)
-// X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer3 compare A, B.
+// X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer2 compare A, B (vectors 13 and 14, ahead of
+// the UART's 25 in priority; Timer3's 32 and 33 came after it, and its edges waited behind a
+// byte's ISR: the worst notes' p99 2.0-2.3 us at full line speed).
 #define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
-#define SC_S3(X) settle16(OCR3##X, TCNT3, TIFR3, _BV(OCF3##X));
+#define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
 SC_CHAN_T1(0, A, SC_S1(B) SC_S1(C))
 SC_CHAN_T1(1, B, SC_S1(A) SC_S1(C))
 SC_CHAN_T1(2, C, SC_S1(A) SC_S1(B))
-SC_CHAN_T3(3, A, SC_S3(B))
-SC_CHAN_T3(4, B, SC_S3(A))
+SC_CHAN_T2(3, A, SC_S2(B))
+SC_CHAN_T2(4, B, SC_S2(A))
 #else
 // X, Y: Timer1 compare A, B; Z, A: Timer2 compare A, B.
 #define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
@@ -253,7 +251,7 @@ SC_STEP_IO(3, PORTB, 'B', 4)
 
 // Position, endstop bounce-back and soft limits after one step of m; a reversal turns DIR
 // before the motor's next step.
-void account_step(Motor &m) {
+__attribute__((always_inline)) inline void account_step(Motor &m) {
   const bool up = m.flags & kUp;
   m.position += up ? 1 : -1;
   bool reverse = false;
@@ -298,7 +296,7 @@ void account_step(Motor &m) {
 // onset ramp shortening the period step by step; a pending restrike lands exactly on its time
 // instead, with the new period from there (0: a timed silence, before its first edge at or
 // after the time).
-void next_deadline(Motor &m) {
+__attribute__((always_inline)) inline void next_deadline(Motor &m) {
   if (m.flags & kRamp) {
     if (m.period_q8 > m.target_q8 + m.ramp_q8) {
       m.period_q8 -= m.ramp_q8;
@@ -420,7 +418,7 @@ void take_command(uint8_t mi, Motor &m) {
 // d is a timer wrap or more away, bit m of GPIOR0 and g_wraps make the stub count the matches
 // before it instead of raising. Called from: the motor's own context (its handler, or the main
 // loop while the motor is silent), busy. Interrupts off at most about 30 cycles at a time.
-template <uint8_t M> bool arm(uint32_t d) {
+template <uint8_t M> __attribute__((always_inline)) inline bool arm(uint32_t d) {
   typedef Chan<M> C;
   const int32_t est = (int32_t)(d - now());
   if (est <= (int32_t)cfg::kArmGuardTicks) return false;
@@ -442,11 +440,12 @@ template <uint8_t M> bool arm(uint32_t d) {
   }
   // How many of the channel's matches come before d's own: its stub counts them down in
   // g_wraps (bit m of GPIOR0 set while any are left). Counted from the channel itself (the time
-  // to its next match): Timer1 and Timer3 from est (half a 4 ms wrap covers the ISR being held
+  // to its next match): Timer1 from est (half a 4 ms wrap covers the ISR being held
   // up since), Timer2 on the 16-bit timer from d; further than that reaches (kFineTicks), the
   // count is rough and ends kRoughSpareWraps early in the handler, which counts again. The
-  // timer is read with interrupts off, the count worked out with them on, and set with them
-  // off again if no match came in between (the time to the next one has not grown).
+  // timer is read with interrupts off and the count worked out and set with them on (the stub
+  // reads it only once the busy bit is clear); the busy bit is cleared, with interrupts off,
+  // only if the channel's next match is still ahead then (none came since the read).
   const uint16_t d16 = (uint16_t)d;
   // rough: the matches to count before the handler's next visit (after them, the next match
   // enters it: kRoughVisit for that one at once); 0: an exact count.
@@ -464,27 +463,32 @@ template <uint8_t M> bool arm(uint32_t d) {
       u = C::until();
     }
     const uint8_t n = rough ? 0xFF : C::count(half_on, d16, t, u);
+    // The stub reads g_wraps and its visit bit only once the busy bit is clear: they are set
+    // with interrupts on.
     // d came, or comes too soon to be sure of its match (it may come while busy, and return)
     if ((check_left && (int16_t)(d16 - t) <= (int16_t)cfg::kArmGuardTicks) || (n == 0 && u <= cfg::kArmGuardTicks)) {
-      ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        g_wraps[M] = kWrapsVisit;  // a match of it only visits
-        GPIOR0 |= _BV(M);
-      }
+      g_wraps[M] = kWrapsVisit;  // a match of it only visits
+      GPIOR0 |= _BV(M);
       return false;
     }
+    if (rough) {
+      g_wraps[M] = rough == kRoughVisit ? kWrapsVisit : rough;
+      g_wraps_then[M] = kWrapsVisit;
+      GPIOR0 |= _BV(M);
+    } else if (n == 0) {
+      GPIOR0 &= (uint8_t)~_BV(M);
+    } else {
+      g_wraps[M] = n;
+      g_wraps_then[M] = 0;
+      GPIOR0 |= _BV(M);
+    }
+    // The channel is freed if its next match (u after the read) is still kArmFinalTicks away:
+    // none came since the read, and none comes before the busy bit is clear. (A match due
+    // sooner comes while busy and returns, and the count starts again from the one after.)
+    if (u <= cfg::kArmFinalTicks) continue;
+    const uint16_t window = (uint16_t)(u - cfg::kArmFinalTicks);
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      if (C::until() <= u) {  // no match since the read
-        if (rough) {
-          g_wraps[M] = rough == kRoughVisit ? kWrapsVisit : rough;
-          g_wraps_then[M] = kWrapsVisit;
-          GPIOR0 |= _BV(M);
-        } else if (n == 0) {
-          GPIOR0 &= (uint8_t)~_BV(M);
-        } else {
-          g_wraps[M] = n;
-          g_wraps_then[M] = 0;
-          GPIOR0 |= _BV(M);
-        }
+      if ((uint16_t)(TCNT1 - t) < window) {
         busy_clear<M>();
         return true;
       }
@@ -603,7 +607,9 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_sounding |= bit;  // its channel is busy while silent
   }
-  while (!kOps[mi].arm(m.deadline)) m.deadline = now() + cfg::kStartLeadTicks;  // held up past it
+  // Held up past it (by the ISRs meanwhile): again, further ahead each time.
+  for (uint16_t lead = cfg::kStartLeadTicks; !kOps[mi].arm(m.deadline); lead = (uint16_t)(lead + cfg::kStartLeadTicks))
+    m.deadline = now() + lead;
   return ok;
 }
 
@@ -628,47 +634,49 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
                          "rjmp 2f\n\t" RAISE_ASM                                                       \
                          "sbi %[bio], %[bb]\n\t"                                                       \
                          "jmp %x[edge]\n\t"                                                            \
-                         "2:\n\t"                                                                     \
-                         "push r24\n\t"                                                               \
-                         "in r24, __SREG__\n\t"                                                       \
-                         "push r24\n\t"                                                               \
-                         "lds r24, %[wraps]\n\t"                                                      \
-                         "sbrc r24, 7\n\t"                                                            \
-                         "rjmp 4f\n\t"                                                                \
-                         "dec r24\n\t"                                                                \
-                         "sts %[wraps], r24\n\t"                                                      \
-                         "brne 3f\n\t"                                                                \
-                         "lds r24, %[then]\n\t"                                                       \
-                         "sts %[wraps], r24\n\t"                                                      \
-                         "sbrs r24, 7\n\t"                                                            \
-                         "cbi %[gp], %[m]\n\t"                                                         \
-                         "3:\n\t"                                                                     \
-                         "pop r24\n\t"                                                                \
-                         "out __SREG__, r24\n\t"                                                      \
-                         "pop r24\n\t"                                                                \
-                         "reti\n\t"                                                                   \
-                         "4:\n\t"                                                                     \
-                         "pop r24\n\t"                                                                \
-                         "out __SREG__, r24\n\t"                                                      \
-                         "pop r24\n\t"                                                                \
-                         "sbi %[bio], %[bb]\n\t"                                                       \
+                         "2:\n\t"                                                                   \
+                         "push r24\n\t"                                                             \
+                         "in r24, __SREG__\n\t"                                                     \
+                         "push r24\n\t"                                                             \
+                         "lds r24, %[wraps]\n\t"                                                    \
+                         "sbrc r24, 7\n\t"                                                          \
+                         "rjmp 4f\n\t"                                                              \
+                         "dec r24\n\t"                                                              \
+                         "sts %[wraps], r24\n\t"                                                    \
+                         "brne 3f\n\t"                                                              \
+                         "lds r24, %[then]\n\t"                                                     \
+                         "sts %[wraps], r24\n\t"                                                    \
+                         "sbrs r24, 7\n\t"                                                          \
+                         "cbi %[gp], %[m]\n\t"                                                      \
+                         "3:\n\t"                                                                   \
+                         "pop r24\n\t"                                                              \
+                         "ori r24, 0x80\n\t"                                                        \
+                         "out __SREG__, r24\n\t"                                                    \
+                         "pop r24\n\t"                                                              \
+                         "reti\n\t"                                                                 \
+                         "4:\n\t"                                                                   \
+                         "pop r24\n\t"                                                              \
+                         "out __SREG__, r24\n\t"                                                    \
+                         "pop r24\n\t"                                                              \
+                         "sbi %[bio], %[bb]\n\t"                                                    \
                          "jmp %x[visit]\n\t" ::[gp] "I"(_SFR_IO_ADDR(GPIOR0)),                          \
                          [m] "I"(M), [bio] "I"(SC_BUSY_IO(M)), [bb] "I"(SC_BUSY_BIT(M)),                   \
-                         [wraps] "i"(&sched::g_wraps[M]), [then] "i"(&sched::g_wraps_then[M]), [visit] "i"(__vector_sc_visit##M),              \
+                         [wraps] "i"(&sched::g_wraps[M]), [then] "i"(&sched::g_wraps_then[M]), [visit] "i"(__vector_sc_visit##M), \
                          [edge] "i"(__vector_sc_edge##M));                                                \
   }
 #define SC_RAISE_IO(PORT, BIT) "sbi " #PORT ", " #BIT "\n\t"
 #define SC_IO(PORT) _SFR_IO_ADDR(PORT)
 #if defined(__AVR_ATmega2560__)
-// PORTF 0x11, PORTA 0x02, PORTC 0x08 (I/O addresses); PORTL at 0x10B (data space).
+// PORTF 0x11, PORTA 0x02, PORTC 0x08 (I/O addresses); PINL at 0x109 (data space).
 static_assert(_SFR_IO_ADDR(PORTF) == 0x11 && _SFR_IO_ADDR(PORTA) == 0x02 && _SFR_IO_ADDR(PORTC) == 0x08, "ports");
+static_assert(_SFR_MEM_ADDR(PINL) == 0x109, "PINL");
 SC_STEP_ENTRY(0, TIMER1_COMPA_vect, SC_RAISE_IO(0x11, 0))
 SC_STEP_ENTRY(1, TIMER1_COMPB_vect, SC_RAISE_IO(0x11, 6))
-SC_STEP_ENTRY(2, TIMER1_COMPC_vect,
-              "push r24\n\tin r24, __SREG__\n\tpush r24\n\tlds r24, 0x10B\n\tori r24, 0x08\n\tsts 0x10B, r24\n\t"
-              "pop r24\n\tout __SREG__, r24\n\tpop r24\n\t")
-SC_STEP_ENTRY(3, TIMER3_COMPA_vect, SC_RAISE_IO(0x02, 4))
-SC_STEP_ENTRY(4, TIMER3_COMPB_vect, SC_RAISE_IO(0x08, 1))
+// Z: PL3, raised by writing its bit to PINL (0x109: a write of 1 toggles the port bit; STEP is
+// low before every raise), which needs no SREG save.
+SC_STEP_ENTRY(2, TIMER1_COMPC_vect, "push r24\n\tldi r24, 0x08\n\tsts 0x109, r24\n\tpop r24\n\t")
+SC_STEP_ENTRY(3, TIMER2_COMPA_vect, SC_RAISE_IO(0x02, 4))
+SC_STEP_ENTRY(4, TIMER2_COMPB_vect, SC_RAISE_IO(0x08, 1))
 #else
 // PORTD 0x0B, PORTB 0x05 (I/O addresses).
 static_assert(_SFR_IO_ADDR(PORTD) == 0x0B && _SFR_IO_ADDR(PORTB) == 0x05, "ports");
@@ -719,34 +727,21 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     TCCR1B = _BV(CS10);  // CPU cycles
     TCCR1C = 0;
     TCNT1 = 0;
-#if defined(__AVR_ATmega2560__)
-    TCCR3A = 0;
-    TCCR3B = _BV(CS30);
-    TCCR3C = 0;
-    TCNT3 = 0;
-#else
     TCCR2A = 0;
     TCCR2B = _BV(CS21);  // CPU cycles / 8
     TCNT2 = 0;
-#endif
     GTCCR = 0;
     // How the other timer stands against Timer1 (both started on the same cycle on a real
     // chip; an emulator may start them a few cycles apart).
-#if defined(__AVR_ATmega2560__)
-    const uint16_t t1 = TCNT1;
-    const uint16_t t3 = TCNT3;  // read 4 cycles after TCNT1's low byte
-    g_skew3 = (uint16_t)(t3 - t1 - 4);
-#else
     const uint16_t t1 = TCNT1;
     const uint8_t t2 = TCNT2;  // read 4 cycles after TCNT1's low byte
     g_skew2 = (uint8_t)(t2 - (uint8_t)((uint16_t)(t1 + 4) >> 3));
-#endif
     g_time_base = 0;
     // Every channel's interrupt stays on from here (a silent motor's matches return at once):
     // the virtual board never takes a flag raised while its interrupt was off.
 #if defined(__AVR_ATmega2560__)
     TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B) | _BV(OCIE1C);
-    TIMSK3 = _BV(OCIE3A) | _BV(OCIE3B);
+    TIMSK2 = _BV(OCIE2A) | _BV(OCIE2B);
 #else
     TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
     TIMSK2 = _BV(OCIE2A) | _BV(OCIE2B);

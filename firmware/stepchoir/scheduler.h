@@ -1,5 +1,5 @@
 // scheduler.h: motors step from timer compare channels, one channel per motor (Timer1 A/B
-// and Timer2 A/B on the Uno, Timer1 A/B/C and Timer3 A/B on the Mega); board time is Timer1,
+// and Timer2 A/B on the Uno, Timer1 A/B/C and Timer2 A/B on the Mega); board time is Timer1,
 // counting CPU cycles (1 tick = 62.5 ns at 16 MHz), extended to 32 bits from a base that
 // Timer0's compare moves on.
 //
@@ -16,8 +16,8 @@
 //   STEP  _________|‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾‾|________________________________________
 //
 // So an edge is late only by what keeps interrupts off when it is due: another stub (19
-// cycles; 32-39 when it counts off a match), a UART ISR's first part (about 26), a critical
-// section of the main loop or a handler (at most about 30).
+// cycles; 29 when it counts off a match, 37 at the last), the receive ISR's first part (about
+// 26), a critical section of the main loop or a handler (at most about 20).
 // The handler lowers STEP once the pulse is over, then does the step's bookkeeping (position,
 // endstops, soft limits, reversal), takes a command from the motor's mailbox, works out the
 // next deadline and arms the compare. The matches a long period's deadline is a timer wrap or
