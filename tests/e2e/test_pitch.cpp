@@ -73,12 +73,20 @@ struct Bounds {
   double p99_us, max_us;
 };
 
+// A p99 is checked per note where the note has tr::kMinEdgesForP99 edges or more (of fewer it
+// is their largest, which the max bound checks), and over every motor's edges together (one
+// offset per chord window removed).
+const size_t kMinEdgesForNoteP99 = tr::kMinEdgesForP99;
+// The targets (the bounds each test checks are below, with why).
+const double kTargetP99Us = 2.0, kTargetMaxUs = 8.0;
+
 // Checks pitch and timing of every motor in every chord window.
 void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
   std::vector<std::vector<uint32_t>> periods;
   const tr::Trace t = play_chords(board_name, &periods, pause_us);
   const uint64_t t0 = std::stoull(t.summary_lines.back().substr(3));
-  double worst_cents = 0, worst_p99_us = 0, worst_max_us = 0;
+  double worst_cents = 0, worst_p99_us = 0, worst_max_us = 0, worst_motor_p99_us = 0;
+  std::vector<std::vector<double>> motor_residuals_us(t.motor.size());
   for (size_t c = 0; c < periods.size(); ++c) {
     for (size_t m = 0; m < periods[c].size(); ++m) {
       const uint64_t from = t0 + uint64_t((c * kChordSeconds + kSettleSeconds) * t.f_cpu_hz);
@@ -90,34 +98,44 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
       const tr::PitchFit f = tr::fit_edges(edges, periods[c][m] / 256.0, t.f_cpu_hz);
       INFO("cents " << f.cents_error << " p99 " << f.residual_p99_us << " us, max " << f.residual_max_us << " us");
       CHECK(std::abs(f.cents_error) < 0.05);
-      CHECK(f.residual_p99_us < bounds.p99_us);
+      if (edges.size() >= kMinEdgesForNoteP99) CHECK(f.residual_p99_us < bounds.p99_us);
       CHECK(f.residual_max_us < bounds.max_us);
+      if (f.residual_max_us >= kTargetMaxUs || (edges.size() >= kMinEdgesForNoteP99 && f.residual_p99_us >= kTargetP99Us))
+        std::printf("%s chord %zu motor %zu MIDI %d (%zu edges): p99 %.3f us, max %.3f us, over the target\n",
+                    board_name.c_str(), c, m, kChords[c][m], edges.size(), f.residual_p99_us, f.residual_max_us);
+      for (double r : tr::grid_residuals_cycles(edges, periods[c][m] / 256.0))
+        motor_residuals_us[m].push_back(std::abs(r) * 1e6 / t.f_cpu_hz);
       worst_cents = std::max(worst_cents, std::abs(f.cents_error));
-      worst_p99_us = std::max(worst_p99_us, f.residual_p99_us);
+      if (edges.size() >= kMinEdgesForNoteP99) worst_p99_us = std::max(worst_p99_us, f.residual_p99_us);
       worst_max_us = std::max(worst_max_us, f.residual_max_us);
     }
   }
   for (size_t m = 0; m < t.motor.size(); ++m) {
+    const double p99 = tr::percentile_nearest_rank(motor_residuals_us[m], 0.99);
+    INFO(board_name << " motor " << m << ": " << motor_residuals_us[m].size() << " edges, p99 " << p99 << " us");
+    CHECK(p99 < bounds.p99_us);
+    worst_motor_p99_us = std::max(worst_motor_p99_us, p99);
     const auto w = tr::min_pulse_width_cycles(t.motor[m].steps);
     REQUIRE(w);
     CHECK(*w >= 2 * t.f_cpu_hz / 1e6);
   }
-  std::printf("%s: worst |cents| %.5f, worst p99 %.3f us, worst max %.3f us\n", board_name.c_str(), worst_cents,
-              worst_p99_us, worst_max_us);
+  std::printf("%s: worst |cents| %.5f, worst motor p99 %.3f us, worst note p99 (%zu+ edges) %.3f us, worst max %.3f us\n",
+              board_name.c_str(), worst_cents, worst_motor_p99_us, kMinEdgesForNoteP99, worst_p99_us, worst_max_us);
 }
 
 }  // namespace
 
 // The targets (p99 2 us, max 8 us) hold for a motor playing alone (below). With four
 // or five motors at once (one timer compare channel each, docs/ARCHITECTURE.md), measured
-// 2026-12-01: live traffic, worst note p99 2.1-2.5 us, max 2.9-5.9 us; frames at full line
-// speed, p99 2.2-2.8 us, max 128-231 us (a handler held up by nested ones past its motor's
-// next deadline raises it itself, late), and about one Mega run in four one edge a Timer1 wrap
-// (4.1 ms) late (not yet explained; the e2e runner's rerun covers it). These bounds are that
-// envelope with a margin, kept as a regression guard; pitch is held to the target everywhere.
-const Bounds kFullSpeed = {6.0, 400.0};
-const Bounds kLiveTraffic = {4.0, 12.0};
-const Bounds kTarget = {2.0, 8.0};
+// 2026-12-01 (three runs each): live traffic, worst motor's p99 1.72-1.84 us, worst note's
+// (100+ edges) 1.85-1.95 us, max 2.7-3.1 us; frames at full line speed, worst motor's p99
+// 1.83-2.00 us, worst note's 1.79-2.49 us, max 3.4-5.2 us (earlier builds the same day had
+// single edges 10-107 us late there). Each run prints the notes over the target. These bounds
+// are that envelope with a margin, kept as a regression guard; pitch is held to the target
+// everywhere.
+const Bounds kFullSpeed = {3.0, 20.0};
+const Bounds kLiveTraffic = {2.5, 8.0};
+const Bounds kTarget = {kTargetP99Us, kTargetMaxUs};
 
 TEST_CASE("uno: every motor in tune across MIDI 24-108 - frames at full speed") {
   check_chords("uno", 0, kFullSpeed);

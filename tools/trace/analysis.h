@@ -57,6 +57,11 @@ std::vector<double> grid_residuals_cycles(const std::vector<uint64_t>& edge_cycl
 // Nearest-rank percentile (q in [0, 1]) of values; 0 for an empty vector.
 double percentile_nearest_rank(std::vector<double> values, double q);
 
+// A note's p99 of its edges' residuals means something from this many edges on: of fewer, the
+// nearest-rank p99 is their largest (a 33 Hz note has 31 edges a second), which a max bound
+// covers. Jitter p99s are judged per note from here on, and over all of a motor's edges.
+constexpr size_t kMinEdgesForP99 = 100;
+
 // MIDI note number (fractional) of a frequency: 69 + 12 * log2(hz / 440).
 double midi_from_hz(double hz);
 
