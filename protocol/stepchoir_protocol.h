@@ -170,7 +170,7 @@ struct __attribute__((packed)) StatusHead {
   uint16_t frames_bad;       // frames that failed CRC or COBS, or were refused
   uint16_t uart_overruns;
   uint16_t reversals;        // endstop and soft-limit reversals since the counters were reset
-  uint16_t late_edges;       // steps the scheduler had to play late (should stay 0)
+  uint16_t late_edges;       // steps the scheduler had to raise itself, late: their compare was armed too late (should stay 0)
   uint8_t queue_used;
   uint8_t last_error;        // ErrorCode of the most recent fault
   uint8_t motor_count;

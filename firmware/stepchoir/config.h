@@ -67,10 +67,6 @@ static const uint16_t kTriggerAfterTicks = 800;
 // soonest this long after the command was taken): more than kArmGuardTicks plus the arming.
 static const uint16_t kStartLeadTicks = 288;
 
-// An edge raised more than this long after its deadline counts as late in status (ticks): 2 us
-// plus the stub's 13 cycles from the compare match to the raise.
-static const uint8_t kLateTicks = 48;
-
 // An endstop that fired stays ignored until it has read "released" at every step for this long
 // (ticks): switch chatter after a reversal gives no second reversal. 20 ms.
 static const uint32_t kRearmTicks = 320000ul;

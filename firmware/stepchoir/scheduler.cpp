@@ -514,7 +514,6 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
       }
       Step<M>::lower();
       lowered = TCNT1L;
-      if ((int16_t)(raised - (uint16_t)m.deadline) > (int16_t)cfg::kLateTicks) g_late_edges = (uint16_t)(g_late_edges + 1);
       account_step(m);
       next_deadline(m);
     }
@@ -528,7 +527,8 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
     }
     if (arm<M>(m.deadline)) break;
     // Due now or past (a visit came late, or the ISR was held up): raised here, late, STEP low
-    // a pulse width at least.
+    // a pulse width at least; status counts it (late_edges: the edges not raised by their
+    // channel's compare).
     if (edge) {
       while ((uint8_t)(TCNT1L - lowered) < m.pulse_ticks) {
       }
@@ -537,6 +537,7 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
       Step<M>::raise();
       raised = TCNT1;
     }
+    g_late_edges = (uint16_t)(g_late_edges + 1);
     edge = true;
   }
 }

@@ -129,7 +129,7 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // or five motors at once (one timer compare channel each, docs/ARCHITECTURE.md), measured
 // 2026-12-01 (three runs each): live traffic, worst motor's p99 1.72-1.84 us, worst note's
 // (100+ edges) 1.85-1.95 us, max 2.7-3.1 us; frames at full line speed, worst motor's p99
-// 1.83-2.00 us, worst note's 1.79-2.49 us, max 3.4-5.2 us (earlier builds the same day had
+// 1.8-2.1 us, worst note's 1.8-2.5 us, max 3.4-5.2 us (earlier builds the same day had
 // single edges 10-107 us late there). Each run prints the notes over the target. These bounds
 // are that envelope with a margin, kept as a regression guard; pitch is held to the target
 // everywhere.
