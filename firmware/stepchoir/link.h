@@ -35,9 +35,9 @@ __attribute__((always_inline)) inline void feed_tx() {
   }
 }
 
-// Passes of wait_byte's loop (about 16 cycles each, longer when ISRs nest) that make about
-// `ticks`.
-constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 16u); }
+// Passes of wait_byte's loop (20 cycles each with nothing to send, by the disassembly; longer
+// when ISRs nest) that make about `ticks`.
+constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 20u); }
 
 // Called from: main loop, while a frame is coming in. Takes the next received byte into out,
 // waiting for it at most max_passes passes of its loop (wait_passes); false when none came.

@@ -69,8 +69,7 @@ volatile uint8_t g_sounding;
 // command to take, or more matches than the count holds).
 volatile uint8_t g_wraps[kMotors];
 const uint8_t kWrapsVisit = 0x80;
-volatile uint8_t g_wraps_then[kMotors];
-  // g_wraps once the count is out: 0 (the edge next) or kWrapsVisit
+volatile uint8_t g_wraps_then[kMotors];  // g_wraps once the count is out: 0 (the edge next) or kWrapsVisit
 const uint16_t kFineTicks = 61440;       // arm() counts wraps exactly up to this far ahead
 const uint8_t kRoughSpareWraps = 16;     // ... and further, ends a rough count this early
 const uint8_t kRoughVisit = 0xFF;        // arm(): the handler at the next match
@@ -191,12 +190,12 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
     static SC_AI void trigger() { SIBS OCR2##X = (uint8_t)(TCNT2 + (cfg::kTriggerLeadTicks >> 3)); } \
   };
 
+#define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
+#define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
 #if defined(__AVR_ATmega2560__)
 // X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer2 compare A, B (vectors 13 and 14, ahead of
 // the UART's 25 in priority; Timer3's 32 and 33 came after it, and its edges waited behind a
 // byte's ISR: the worst notes' p99 2.0-2.3 us at full line speed).
-#define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
-#define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
 SC_CHAN_T1(0, A, SC_S1(B) SC_S1(C))
 SC_CHAN_T1(1, B, SC_S1(A) SC_S1(C))
 SC_CHAN_T1(2, C, SC_S1(A) SC_S1(B))
@@ -204,8 +203,6 @@ SC_CHAN_T2(3, A, SC_S2(B))
 SC_CHAN_T2(4, B, SC_S2(A))
 #else
 // X, Y: Timer1 compare A, B; Z, A: Timer2 compare A, B.
-#define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
-#define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
 SC_CHAN_T1(0, A, SC_S1(B))
 SC_CHAN_T1(1, B, SC_S1(A))
 SC_CHAN_T2(2, A, SC_S2(B))
@@ -417,7 +414,8 @@ void take_command(uint8_t mi, Motor &m) {
 // too close to be sure the compare fires (the caller raises the edge itself, still busy). When
 // d is a timer wrap or more away, bit m of GPIOR0 and g_wraps make the stub count the matches
 // before it instead of raising. Called from: the motor's own context (its handler, or the main
-// loop while the motor is silent), busy. Interrupts off at most about 30 cycles at a time.
+// loop while the motor is silent), busy. Interrupts off about 20 cycles at a time (the compare's
+// write longer while a sibling compare due within kSettleTicks sets its flag).
 template <uint8_t M> __attribute__((always_inline)) inline bool arm(uint32_t d) {
   typedef Chan<M> C;
   const int32_t est = (int32_t)(d - now());
@@ -621,8 +619,8 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
 // bit is set. With bit m of GPIOR0 clear it raises STEP (13 cycles after the match), sets the
 // busy bit and jumps to the motor's handler, which turns interrupts back on as its first
 // instruction (interrupts off 19 cycles in all, by the instruction count). With it set, the match comes before the
-// edge's: the stub counts it off g_wraps (about 30 cycles, interrupts off) and clears the bit
-// at the last, or enters the handler (kWrapsVisit).
+// edge's: the stub counts it off g_wraps (interrupts off 29 cycles, 37 at the last, by the
+// instruction count) and clears the bit at the last, or enters the handler (kWrapsVisit).
 #define SC_STEP_ENTRY(M, VECT, RAISE_ASM)                                                               \
   extern "C" void __vector_sc_edge##M(void) __attribute__((interrupt, used, externally_visible));        \
   extern "C" void __vector_sc_visit##M(void) __attribute__((interrupt, used, externally_visible));       \
@@ -666,7 +664,6 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
                          [edge] "i"(__vector_sc_edge##M));                                                \
   }
 #define SC_RAISE_IO(PORT, BIT) "sbi " #PORT ", " #BIT "\n\t"
-#define SC_IO(PORT) _SFR_IO_ADDR(PORT)
 #if defined(__AVR_ATmega2560__)
 // PORTF 0x11, PORTA 0x02, PORTC 0x08 (I/O addresses); PINL at 0x109 (data space).
 static_assert(_SFR_IO_ADDR(PORTF) == 0x11 && _SFR_IO_ADDR(PORTA) == 0x02 && _SFR_IO_ADDR(PORTC) == 0x08, "ports");

@@ -76,7 +76,6 @@ struct Bounds {
 // A p99 is checked per note where the note has tr::kMinEdgesForP99 edges or more (of fewer it
 // is their largest, which the max bound checks), and over every motor's edges together (one
 // offset per chord window removed).
-const size_t kMinEdgesForNoteP99 = tr::kMinEdgesForP99;
 // The issue's targets (the bounds each test checks are below, with why).
 const double kTargetP99Us = 2.0, kTargetMaxUs = 8.0;
 
@@ -98,20 +97,20 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
       const tr::PitchFit f = tr::fit_edges(edges, periods[c][m] / 256.0, t.f_cpu_hz);
       INFO("cents " << f.cents_error << " p99 " << f.residual_p99_us << " us, max " << f.residual_max_us << " us");
       CHECK(std::abs(f.cents_error) < 0.05);
-      if (edges.size() >= kMinEdgesForNoteP99) CHECK(f.residual_p99_us < bounds.p99_us);
+      if (edges.size() >= tr::kMinEdgesForP99) CHECK(f.residual_p99_us < bounds.p99_us);
       CHECK(f.residual_max_us < bounds.max_us);
-      if (f.residual_max_us >= kTargetMaxUs || (edges.size() >= kMinEdgesForNoteP99 && f.residual_p99_us >= kTargetP99Us))
+      if (f.residual_max_us >= kTargetMaxUs || (edges.size() >= tr::kMinEdgesForP99 && f.residual_p99_us >= kTargetP99Us))
         std::printf("%s chord %zu motor %zu MIDI %d (%zu edges): p99 %.3f us, max %.3f us, over the target\n",
                     board_name.c_str(), c, m, kChords[c][m], edges.size(), f.residual_p99_us, f.residual_max_us);
       for (double r : tr::grid_residuals_cycles(edges, periods[c][m] / 256.0))
         motor_residuals_us[m].push_back(std::abs(r) * 1e6 / t.f_cpu_hz);
       worst_cents = std::max(worst_cents, std::abs(f.cents_error));
-      if (edges.size() >= kMinEdgesForNoteP99) worst_p99_us = std::max(worst_p99_us, f.residual_p99_us);
+      if (edges.size() >= tr::kMinEdgesForP99) worst_p99_us = std::max(worst_p99_us, f.residual_p99_us);
       worst_max_us = std::max(worst_max_us, f.residual_max_us);
     }
   }
   for (size_t m = 0; m < t.motor.size(); ++m) {
-    const double p99 = tr::percentile_nearest_rank(motor_residuals_us[m], 0.99);
+    const double p99 = tr::percentile_nearest_rank(motor_residuals_us[m], tr::kP99Quantile);
     INFO(board_name << " motor " << m << ": " << motor_residuals_us[m].size() << " edges, p99 " << p99 << " us");
     CHECK(p99 < bounds.p99_us);
     worst_motor_p99_us = std::max(worst_motor_p99_us, p99);
@@ -120,7 +119,7 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
     CHECK(*w >= 2 * t.f_cpu_hz / 1e6);
   }
   std::printf("%s: worst |cents| %.5f, worst motor p99 %.3f us, worst note p99 (%zu+ edges) %.3f us, worst max %.3f us\n",
-              board_name.c_str(), worst_cents, worst_motor_p99_us, kMinEdgesForNoteP99, worst_p99_us, worst_max_us);
+              board_name.c_str(), worst_cents, worst_motor_p99_us, tr::kMinEdgesForP99, worst_p99_us, worst_max_us);
 }
 
 }  // namespace
@@ -184,7 +183,7 @@ TEST_CASE("uno and mega: a motor alone is in tune and on time to 2 us across MID
       CHECK(f.residual_max_us < kTarget.max_us);
       for (double r : tr::grid_residuals_cycles(edges, periods[i] / 256.0)) residuals_us.push_back(std::abs(r) * 1e6 / t.f_cpu_hz);
     }
-    const double p99_us = tr::percentile_nearest_rank(residuals_us, 0.99);
+    const double p99_us = tr::percentile_nearest_rank(residuals_us, tr::kP99Quantile);
     std::printf("%s alone: %zu edges, p99 %.3f us\n", board.c_str(), residuals_us.size(), p99_us);
     CHECK(p99_us < kTarget.p99_us);
   }

@@ -617,7 +617,7 @@ Worst worst_of(const PassResult &r) {
     if (by_motor.size() <= n.motor) by_motor.resize(n.motor + 1);
     by_motor[n.motor].insert(by_motor[n.motor].end(), n.residuals_us.begin(), n.residuals_us.end());
   }
-  for (const auto &v : by_motor) w.motor_p99_us = std::max(w.motor_p99_us, tr::percentile_nearest_rank(v, 0.99));
+  for (const auto &v : by_motor) w.motor_p99_us = std::max(w.motor_p99_us, tr::percentile_nearest_rank(v, tr::kP99Quantile));
   return w;
 }
 

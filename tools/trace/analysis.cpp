@@ -9,7 +9,6 @@ namespace sc {
 namespace trace {
 
 constexpr double kMedianQuantile = 0.50;
-constexpr double kP99Quantile = 0.99;
 
 double percentile_nearest_rank(std::vector<double> values, double q) {
   if (values.empty()) return 0;

@@ -54,6 +54,9 @@ PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period
 std::vector<double> grid_residuals_cycles(const std::vector<uint64_t>& edge_cycles,
                                           double ideal_period_cycles);
 
+// The quantile a jitter "p99" is (percentile_nearest_rank).
+constexpr double kP99Quantile = 0.99;
+
 // Nearest-rank percentile (q in [0, 1]) of values; 0 for an empty vector.
 double percentile_nearest_rank(std::vector<double> values, double q);
 
