@@ -160,12 +160,20 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
 }
 
 #define SC_AI inline __attribute__((always_inline))
+// The virtual board (simavr 1.6) schedules a wrap's Timer1 compares when it processes the
+// overflow, after the instruction the overflow fell in (up to 5 cycles), and drops a compare due
+// before that: at OCR1x 0-2 a match is lost in some wraps, and its edge comes a wrap (4.1 ms)
+// late (`ctest -R vboard_timer_quirks`). No OCR1x is set below kOcr1Min: such an edge rises at
+// most kOcr1Min cycles late (0.25 us, one edge in 16,000), its deadline kept. Timer2's compares
+// come 8 cycles a tick after its overflow, past any instruction.
+const uint16_t kOcr1Min = 4;
+SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
 // Timer1, compare X.
 #define SC_CHAN_T1(M, X, SIBS)                                                          \
   template <> struct Chan<M> {                                                                   \
     static const uint32_t kWrap = 65536ul;                                                       \
     typedef uint16_t Value;                                                                      \
-    static SC_AI Value value(uint32_t d) { return (uint16_t)d; }                                 \
+    static SC_AI Value value(uint32_t d) { return ocr1((uint16_t)d); }                           \
     static SC_AI Value read() { return OCR1##X; }                                               \
     static SC_AI void write(Value v) { OCR1##X = v; }                                           \
     static SC_AI uint16_t until() { const uint16_t a = (uint16_t)(OCR1##X + 1 - TCNT1); return a ? a : 0xFFFF; } \
@@ -173,7 +181,7 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
     static SC_AI void settle() { SIBS }                                                         \
     static SC_AI bool waiting() { return TIFR1 & _BV(OCF1##X); }                                \
     static SC_AI uint16_t ahead() { return (uint16_t)(OCR1##X - TCNT1); }                       \
-    static SC_AI void trigger() { SIBS OCR1##X = (uint16_t)(TCNT1 + cfg::kTriggerLeadTicks); }  \
+    static SC_AI void trigger() { SIBS OCR1##X = ocr1((uint16_t)(TCNT1 + cfg::kTriggerLeadTicks)); } \
   };
 #define SC_CHAN_T2(M, X, SIBS)                                                                        \
   template <> struct Chan<M> {                                                                    \
@@ -547,8 +555,10 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
 template <uint8_t M> void poke() {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     if ((g_sounding & _BV(M)) && g_motor[M].cmd != kCmdNone) {
-      if (Chan<M>::ahead() > cfg::kTriggerAfterTicks) {
-        Chan<M>::trigger();  // a waiting match of the old value only visits too
+      // (A match that came since the cli waits with its flag: ahead() reads it a wrap away, and
+      // it enters its stub as soon as interrupts are on. The flag is read after ahead().)
+      if (Chan<M>::ahead() > cfg::kTriggerAfterTicks && !Chan<M>::waiting()) {
+        Chan<M>::trigger();
         g_wraps[M] = kWrapsVisit;
         GPIOR0 |= _BV(M);
       } else if (GPIOR0 & _BV(M)) {

@@ -129,9 +129,10 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // 2026-12-01: live traffic (3 runs), worst motor's p99 1.72-1.84 us, worst note's (100+ edges)
 // 1.85-1.95 us, max 2.7-3.1 us; frames at full line speed (Uno 11 runs, Mega 16), worst
 // motor's p99 1.6-2.3 us, worst note's 1.7-2.5 us, max 3.4-5.4 us in most runs but single
-// edges 17-108 us late in one run in four (a handler held up past its next deadline), and
-// once in about 20 Mega runs one edge a Timer1 wrap (4.1 ms) late (not yet explained; the e2e
-// runner's rerun covers it). Each run prints the notes over the target. These bounds are that
+// edges 17-108 us late in one run in four (a handler held up past its next deadline). (One
+// Mega run in about 20 had an edge a Timer1 wrap, 4.1 ms, late: the virtual board drops a
+// compare at OCR1x 0-2 in some wraps, and the firmware no longer sets those; none in 30 runs
+// since.) Each run prints the notes over the target. These bounds are that
 // envelope with a margin, kept as a regression guard; pitch is held to the target everywhere.
 const Bounds kFullSpeed = {3.0, 400.0};
 const Bounds kLiveTraffic = {2.5, 8.0};

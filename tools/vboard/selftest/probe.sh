@@ -3,7 +3,7 @@
 # board (uno, no pacing) for SECONDS of board time and checks its trace with check_NAME.py.
 # NAME: compare_lead (how far ahead a Timer1 compare must be armed to fire, and that it fires on
 # its tick) or timer_quirks (a TIFR write clears every set flag of the timer; a waiting interrupt
-# is taken only two instructions after sei).
+# is taken only two instructions after sei; a Timer1 compare at OCR1A 0 is lost in some wraps).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 out=$4/${1//_/-}

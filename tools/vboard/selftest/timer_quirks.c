@@ -1,6 +1,7 @@
-// timer_quirks.c: tiny ATmega328P program measuring two ways the virtual board (simavr 1.6) differs
-// from the datasheet, both met by the firmware: its arm() clears OCF1A by a TIFR1 write, and its
-// burst() lets waiting interrupts in with sei, nop, cli.
+// timer_quirks.c: tiny ATmega328P program measuring three ways the virtual board (simavr 1.6)
+// differs from the datasheet, all met by the firmware: a TIFR write clears every set flag of the
+// timer; a waiting interrupt is taken two instructions after sei; and a Timer1 compare at OCR1A
+// 0 or 1 is lost in a wrap whose overflow falls inside a multi-cycle instruction.
 //
 // Each finding is a report: X DIR (PD5) and Y DIR (PD6) set to two bits, then Z DIR (PD7) toggled.
 // Interrupts are off but in the windows below (and to let the ISR in after each). Timer2 runs in
@@ -10,6 +11,12 @@
 // - Reports 2-4: with OCIE2A on and its flag pending while I = 0, `sei`, 1, 2 or 3 nops, `cli`;
 //   X DIR = the compare ISR ran in that window (Y DIR low). The datasheet runs one instruction
 //   after `sei` before a waiting interrupt is taken.
+// - Reports 5 and 6: Timer1 in normal mode, prescaler 1, OCR1A 0 (report 5) and then 16 (report
+//   6), over kWraps wraps while the main code runs rcall and ret (3 and 4 cycles); X DIR = fewer
+//   compare A matches than overflows. The datasheet matches once a wrap at any OCR1A. simavr 1.6
+//   schedules a wrap's compares when it processes the overflow, after the instruction the
+//   overflow fell in, and drops a compare due before that (avr_timer_tov: comp_cycles <
+//   cycle - when).
 // check_timer_quirks.py reads the trace.
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -51,6 +58,41 @@ static void pend(void) {
     cli();                                                            \
   } while (0)
 
+// Reports 5 and 6: matches of Timer1 compare A and Timer1 overflows.
+volatile uint16_t g_comp1, g_ovf1;
+ISR(TIMER1_COMPA_vect) { ++g_comp1; }
+ISR(TIMER1_OVF_vect) { ++g_ovf1; }
+static const uint16_t kWraps = 120;  // 7.9 M cycles: about 0.5 s of board time
+
+// Counts compare A matches against overflows at `ocr` over kWraps wraps, the main code in calls
+// and returns only; X DIR = some match was lost.
+static void wraps_at(uint16_t ocr) {
+  TIMSK1 = 0;
+  TCCR1B = 0;
+  TCNT1 = 0x8000;
+  OCR1A = ocr;
+  g_comp1 = 0;
+  g_ovf1 = 0;
+  TIFR1 = _BV(OCF1A) | _BV(TOV1);
+  TIMSK1 = _BV(OCIE1A) | _BV(TOIE1);
+  TCCR1B = _BV(CS10);
+  sei();
+  uint16_t ovf;
+  do {
+    __asm__ __volatile__("rcall 1f\n\trjmp 2f\n\t1: ret\n\t2:\n\t" ::: "memory");
+    cli();
+    ovf = g_ovf1;
+    sei();
+  } while (ovf < kWraps);
+  // The last wrap's match (one cycle or 17 after its overflow) is let in.
+  for (uint8_t i = 0; i < 20; ++i) {
+    __asm__ __volatile__("nop");
+  }
+  cli();
+  TIMSK1 = 0;
+  report(g_comp1 < g_ovf1, 0);
+}
+
 int main(void) {
   DDRD = _BV(PD5) | _BV(PD6) | _BV(PD7);
   // Flags: both compares passed, no overflow yet (Timer2 from 0, 256 ticks = 2,048 cycles).
@@ -70,6 +112,9 @@ int main(void) {
   WINDOW("nop\n\t");
   WINDOW("nop\n\tnop\n\t");
   WINDOW("nop\n\tnop\n\tnop\n\t");
+  TIMSK2 = 0;
+  wraps_at(0);
+  wraps_at(16);
   for (;;) {
   }
 }
