@@ -61,6 +61,10 @@ static const uint8_t kArmFinalTicks = 16;
 // channel from the motor's next deadline, which must still be kArmGuardTicks away then.
 static const uint8_t kTriggerLeadTicks = 48;
 static const uint16_t kTriggerAfterTicks = 800;
+// ... but no visit is brought when the motor's next edge is due within this long (ticks; 256
+// us): that edge's handler takes the command. A visit's handler (the command, then the arming)
+// held up by the handlers nested in it took up to about 2,500 cycles at full line speed.
+static const uint16_t kVisitMarginTicks = 4096;
 
 // A motor that starts from silence plays its first edge this long after its channel is armed
 // (ticks; a live note: from the arming, after DIR was set; a sounding motor's retune: at the
@@ -92,6 +96,7 @@ static const uint32_t kDefaultTravelSteps = 3200;
 static_assert(kStartLeadTicks >= kArmGuardTicks + 224, "arm() (about 200 cycles) finds the first edge far enough ahead");
 static_assert(kStartLeadTicks >= kPulseUsMax * 16u, "a note that turns DIR waits the set-up time of every supported driver");
 static_assert(kPulseUsMax * 16u < 256u, "pulse_ticks fits a byte");
+static_assert(kTakeTicks >= 4 * kVisitMarginTicks, "a timed entry is taken well before its motor's edges near its time");
 static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");

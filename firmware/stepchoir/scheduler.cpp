@@ -549,12 +549,21 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
 }
 
 // Called from: main loop, after a command was left in a sounding motor's mailbox. Brings
-// the channel's ISR within kTriggerLeadTicks, unless its next match is due within
-// kTriggerAfterTicks anyway (the visit re-arms the channel from the motor's next deadline).
-// Interrupts off for about 20 cycles.
+// the channel's ISR (a visit) within kTriggerLeadTicks, or at its next match when that one
+// would only be counted, unless the motor's next edge is due within kVisitMarginTicks: then
+// that edge's handler takes the command (a visit that close, held up by the handlers nested in
+// it, came to arming after the edge: edges 11-107 us late before a timed chord change at full
+// line speed). A timed change due before that edge (or just after it: a strike would replace
+// it) is brought at once all the same. Interrupts off for about 20 cycles at a time.
 template <uint8_t M> void poke() {
+  Motor &m = g_motor[M];
+  uint32_t next;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { next = m.deadline; }
+  // (Had the motor's handler run since, it took the command: the check below finds it gone.)
+  const bool soon = (int32_t)(next - now()) <= (int32_t)cfg::kVisitMarginTicks;
+  if (soon && !(m.cmd == kCmdTimed && (int32_t)(m.cmd_at - next) < kStrikeSnapTicks)) return;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    if ((g_sounding & _BV(M)) && g_motor[M].cmd != kCmdNone) {
+    if ((g_sounding & _BV(M)) && m.cmd != kCmdNone) {
       // (A match that came since the cli waits with its flag: ahead() reads it a wrap away, and
       // it enters its stub as soon as interrupts are on. The flag is read after ahead().)
       if (Chan<M>::ahead() > cfg::kTriggerAfterTicks && !Chan<M>::waiting()) {
