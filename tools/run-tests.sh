@@ -15,7 +15,8 @@ cmake --build build -j"$(nproc)"
 (
   cd build
   # Unit and tool tests run once. The end-to-end tests on the virtual board get four reruns: the
-  # full-line-speed pitch tests show a rare late step (docs/ARCHITECTURE.md, being chased), and
+  # full-line-speed pitch tests' p99 bound sits near the top of their spread (docs/ARCHITECTURE.md;
+  # their late steps are gone since 2026-12-02, 0 in 50 runs), and
   # the tests that judge real time fail, saying so, when the machine stalls the virtual board
   # (seen here: 2-11 ms behind real time in two runs in a row, with any firmware; 2-35 ms in
   # three in a row, twice in one day, once with the machine otherwise idle). A failure that is
