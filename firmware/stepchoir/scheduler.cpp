@@ -165,7 +165,7 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
 // before that: at OCR1x 0-2 a match is lost in some wraps, and its edge comes a wrap (4.1 ms)
 // late (`ctest -R vboard_timer_quirks`). No OCR1x is set below kOcr1Min: such an edge rises at
 // most kOcr1Min cycles late (0.25 us, one edge in 16,000), its deadline kept. Timer2's compares
-// come 8 cycles a tick after its overflow, past any instruction.
+// come at least one tick (8 cycles) after its overflow, past any instruction.
 const uint16_t kOcr1Min = 4;
 SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
 // Timer1, compare X.
@@ -552,7 +552,7 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
 // the channel's ISR (a visit) within kTriggerLeadTicks, or at its next match when that one
 // would only be counted, unless the motor's next edge is due within kVisitMarginTicks: then
 // that edge's handler takes the command (a visit that close, held up by the handlers nested in
-// it, came to arming after the edge: edges 11-107 us late before a timed chord change at full
+// it, came to arming after the edge: edges 11-120 us late before a timed chord change at full
 // line speed). A timed change due before that edge (or just after it: a strike would replace
 // it) is brought at once all the same. Interrupts off for about 20 cycles at a time.
 template <uint8_t M> void poke() {
