@@ -126,8 +126,8 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 
 // The targets (p99 2 us, max 8 us) hold for a motor playing alone (below). With four
 // or five motors at once (one timer compare channel each, docs/ARCHITECTURE.md), measured
-// 2026-12-01: live traffic (3 runs), worst motor's p99 1.72-1.84 us, worst note's (100+ edges)
-// 1.85-1.95 us, max 2.7-3.1 us. Frames at full line speed, 2026-12-02 (Uno 25 runs, Mega 25):
+// 2026-12-02: live traffic (3 runs), worst motor's p99 1.69-1.85 us, worst note's (100+ edges)
+// 1.86-1.96 us, max 2.8-3.5 us. Frames at full line speed, 2026-12-02 (Uno 25 runs, Mega 25):
 // worst motor's p99 1.6-2.4 us, worst note's 1.7-3.1 us, max 3.0-5.4 us. (Before, one run in
 // four had single edges 11-120 us late, all within 3 ms before a timed chord change: a visit
 // for its entry held up past the edge; a motor's next edge now takes a command when it is near.
