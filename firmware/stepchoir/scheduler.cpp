@@ -162,8 +162,9 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
 #define SC_AI inline __attribute__((always_inline))
 // The virtual board (simavr 1.6) schedules a wrap's Timer1 compares when it processes the
 // overflow, after the instruction the overflow fell in (up to 5 cycles), and drops a compare due
-// before that: at OCR1x 0-2 a match is lost in some wraps, and its edge comes a wrap (4.1 ms)
-// late (`ctest -R vboard_timer_quirks`). No OCR1x is set below kOcr1Min: such an edge rises at
+// before that: at OCR1x 0 or 1 a match is lost in some wraps (measured on both boards; 2 too by
+// simavr's code, with the Mega's 5-cycle instructions), and its edge comes a wrap (4.1 ms) late
+// (`ctest -R vboard_timer_quirks`). No OCR1x is set below kOcr1Min: such an edge rises at
 // most kOcr1Min cycles late (0.25 us, one edge in 16,000), its deadline kept. Timer2's compares
 // come at least one tick (8 cycles) after its overflow, past any instruction.
 const uint16_t kOcr1Min = 4;

@@ -132,7 +132,7 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // four had single edges 11-120 us late, all within 3 ms before a timed chord change: a visit
 // for its entry held up past the edge; a motor's next edge now takes a command when it is near.
 // And about one Mega run in 20 had an edge a Timer1 wrap, 4.1 ms, late: the virtual board drops
-// a compare at OCR1x 0-2 in some wraps, and the firmware no longer sets those.) Each run prints
+// a compare at a low OCR1x in some wraps, and the firmware no longer sets those.) Each run prints
 // the notes over the target. These bounds are that envelope with a margin, kept as a
 // regression guard; pitch is held to the target everywhere.
 const Bounds kFullSpeed = {3.5, 8.0};
