@@ -19,8 +19,19 @@ extern volatile uint8_t g_tx[cfg::kTxRingBytes];
 extern volatile uint8_t g_tx_head, g_tx_tail;
 }  // namespace detail
 
+// UCSR0B: receiver and transmitter on, with and without the receive interrupt (the
+// transmitter has no interrupt: feed_tx).
+const uint8_t kUartOn = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+const uint8_t kUartRxOff = _BV(RXEN0) | _BV(TXEN0);
+
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
+
+// Called from: every ISR that may run long nested in the receive ISR (the motors' handlers),
+// first thing, interrupts on. Turns the receive interrupt back on, which the receive ISR turns
+// off while it runs: a byte that comes meanwhile enters at once (a receive ISR nested in
+// another takes the bytes, and the outer one finds none left). 3 cycles.
+__attribute__((always_inline)) inline void rx_resume() { UCSR0B = kUartOn; }
 
 // Called from: main loop (wait_byte's loop, after each byte the main loop takes, and send()).
 // Hands the UART the next byte of the transmit ring when its data register is empty. The

@@ -512,6 +512,7 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
   Motor &m = g_motor[M];
   uint16_t raised;  // when STEP rose (ticks): the stub raised it kStubToHandlerTicks or more before
   ATOMIC_BLOCK(ATOMIC_FORCEON) { raised = (uint16_t)(TCNT1 - kStubToHandlerTicks); }
+  link::rx_resume();  // nested in the receive ISR, it lets the bytes that come meanwhile in
   uint8_t lowered = 0;
   for (;;) {
     if (edge) {

@@ -1,7 +1,39 @@
 // cpu_profiler.cpp: interrupts-off windows and per-vector ISR statistics.
 #include "cpu_profiler.h"
 
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <unistd.h>
+
 namespace vboard {
+namespace {
+// Debugging aid: STEPCHOIR_VBOARD_IOFFHIST=PATH ("%p": the process id) counts the
+// interrupts-off windows by where they start and how long they are, and writes
+// "start_pc_hex cycles count" lines to PATH at exit (map the addresses with avr-addr2line).
+struct IoffHistogram {
+  std::string path;
+  std::map<std::pair<uint32_t, uint64_t>, uint64_t> counts;
+  IoffHistogram() {
+    if (const char *p = std::getenv("STEPCHOIR_VBOARD_IOFFHIST")) {
+      path = p;
+      const size_t at = path.find("%p");
+      if (at != std::string::npos) path.replace(at, 2, std::to_string(getpid()));
+    }
+  }
+  ~IoffHistogram() {
+    if (path.empty()) return;
+    if (FILE *f = std::fopen(path.c_str(), "w")) {
+      for (const auto &c : counts)
+        std::fprintf(f, "%x %llu %llu\n", c.first.first, static_cast<unsigned long long>(c.first.second),
+                     static_cast<unsigned long long>(c.second));
+      std::fclose(f);
+    }
+  }
+};
+IoffHistogram g_ioff_hist;
+}  // namespace
 
 // Builds the flash-word -> ISR map from the ISR code ranges.
 CpuProfiler::CpuProfiler(uint32_t flash_bytes, unsigned vector_count, unsigned vector_size_bytes,
@@ -50,6 +82,7 @@ void CpuProfiler::irq_off_end(const InstructionSample &s) {
     return;
   }
   const uint64_t window_cycles = s.cycle_after - off_start_cycle_;
+  if (!g_ioff_hist.path.empty()) ++g_ioff_hist.counts[{off_start_pc_bytes_, window_cycles}];
   if (window_cycles > irq_off_max_cycles_) {
     irq_off_max_cycles_ = window_cycles;
     irq_off_max_pc_bytes_ = off_start_pc_bytes_;
