@@ -177,7 +177,8 @@ SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
     static SC_AI Value value(uint32_t d) { return ocr1((uint16_t)d); }                           \
     static SC_AI Value read() { return OCR1##X; }                                               \
     static SC_AI void write(Value v) { OCR1##X = v; }                                           \
-    static SC_AI uint16_t until() { const uint16_t a = (uint16_t)(OCR1##X + 1 - TCNT1); return a ? a : 0xFFFF; } \
+    static SC_AI uint8_t snap() { return 0; }                                                   \
+    static SC_AI uint16_t until(uint16_t t, uint8_t) { const uint16_t a = (uint16_t)(OCR1##X + 1 - t); return a ? a : 0xFFFF; } \
     static SC_AI uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
     static SC_AI void settle() { SIBS }                                                         \
     static SC_AI bool waiting() { return TIFR1 & _BV(OCF1##X); }                                \
@@ -191,7 +192,8 @@ SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
     static SC_AI Value value(uint32_t d) { return (uint8_t)(((uint16_t)d >> 3) + g_skew2); }     \
     static SC_AI Value read() { return OCR2##X; }                                                \
     static SC_AI void write(Value v) { OCR2##X = v; }                                            \
-    static SC_AI uint16_t until() { const uint8_t a = (uint8_t)(OCR2##X + 1 - TCNT2); return a ? (uint16_t)a << 3 : (uint16_t)kWrap; } \
+    static SC_AI uint8_t snap() { return TCNT2; }                                               \
+    static SC_AI uint16_t until(uint16_t, uint8_t tcnt2) { const uint8_t a = (uint8_t)(OCR2##X + 1 - tcnt2); return a ? (uint16_t)a << 3 : (uint16_t)kWrap; } \
     static SC_AI uint8_t count(uint32_t, uint16_t d16, uint16_t t, uint16_t u) { return (uint8_t)((uint16_t)(d16 - t - u + 1024u) >> 11); } \
     static SC_AI void settle() { SIBS }                                                         \
     static SC_AI bool waiting() { return TIFR2 & _BV(OCF2##X); }                                 \
@@ -464,11 +466,15 @@ template <uint8_t M> __attribute__((always_inline)) inline bool arm(uint32_t d) 
   const bool check_left = est < 32768;
   const uint32_t half_on = (uint32_t)est + C::kWrap / 2;
   for (;;) {
-    uint16_t t, u;
+    // The timers are read together with interrupts off (8 cycles); the time to the next match
+    // is worked out after, from what was read.
+    uint16_t t;
+    uint8_t snap;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
       t = TCNT1;
-      u = C::until();
+      snap = C::snap();
     }
+    const uint16_t u = C::until(t, snap);
     const uint8_t n = rough ? 0xFF : C::count(half_on, d16, t, u);
     // The stub reads g_wraps and its visit bit only once the busy bit is clear: they are set
     // with interrupts on.
