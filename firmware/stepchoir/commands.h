@@ -30,7 +30,8 @@ class Commands {
   }
 
   // Called from: main loop. Feeds n received bytes, in order. The decoder is inlined here:
-  // a byte costs about 60 cycles (the line brings one every 160, the receive ISR takes 50),
+  // a byte costs about 60 cycles (the line brings one every 160, the receive ISR takes about 75
+  // for a lone byte),
   // so the loop keeps up with the line and a frame is handled right after its last byte.
   void on_bytes(const uint8_t *bytes, uint8_t n);
 

@@ -51,12 +51,15 @@ const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 //     framing error, or bytes lost before it: the frame it was in fails and the decoder
 //     resyncs), and counts the loss. A ring the main loop let fill up laps: its bytes are
 //     lost, counted once. It takes every byte the UART holds before it leaves.
-//   - 8 cycles at exit: 7 of the last byte check (RXC0 clear) and sei, then the SREG restore
-//     to reti. (The receive interrupt is turned back on in between, interrupts on: a byte come
-//     since enters at once on a real chip, and within a byte time on the virtual board, which
-//     raises RXC0's interrupt again every byte time while its buffer holds one.)
-// Before, one stretch of 28 cycles a byte held edges up: at full line speed, the worst notes'
-// jitter p99 was about 1.5-2.5 us.
+//   - At exit: 8 cycles for the last check (RXC0 clear) up to sei, then 7 from the SREG
+//     restore to reti. (The receive interrupt is turned back on in between, interrupts on: a
+//     byte come since enters at once on a real chip, and within a byte time on the virtual
+//     board, which raises RXC0's interrupt again every byte time while its buffer holds one.)
+// About 75 cycles for a lone byte, entry included; 31 for each further one it finds waiting.
+// Before (to 2026-12-02) it kept interrupts off for its first 28 cycles in one stretch (60 a
+// byte in all): at full line speed the motors' jitter p99 was 1.65-2.43 us, and 1.49-1.88 us
+// since (build/bin/test_e2e "<board>: every motor in tune across MIDI 24-108 - frames at full
+// speed", 25 runs a board before, 10 since).
 ISR(SC_UART_RX_VECT, ISR_NAKED) {
   __asm__ __volatile__(
       "push r24\n\t"

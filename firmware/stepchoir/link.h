@@ -36,7 +36,7 @@ __attribute__((always_inline)) inline void rx_resume() { UCSR0B = kUartOn; }
 // Called from: main loop (wait_byte's loop, after each byte the main loop takes, and send()).
 // Hands the UART the next byte of the transmit ring when its data register is empty. The
 // transmitter has no ISR: at 1,000,000 baud one took 70-85 cycles of every 160 while a reply
-// went out, on top of the receive ISR's 50, and held up the motors' handlers. Fed once a
+// went out, on top of the receive ISR's 60 then, and held up the motors' handlers. Fed once a
 // received byte (or a wait loop's pass), a reply still goes out at the line's full speed.
 __attribute__((always_inline)) inline void feed_tx() {
   const uint8_t tail = detail::g_tx_tail;
@@ -52,9 +52,9 @@ constexpr uint16_t wait_passes(uint16_t ticks) { return (uint16_t)(ticks / 20u);
 
 // Called from: main loop, while a frame is coming in. Takes the next received byte into out,
 // waiting for it at most max_passes passes of its loop (wait_passes); false when none came.
-// Inlined: the main loop takes a frame's bytes one by one as they come, in the 107 of every
-// 160 cycles the receive ISR leaves it (called, this took 40 cycles a byte and the loop fell
-// behind the line). The wait is counted in passes, not read from Timer1: a 16-bit timer read
+// Inlined: the main loop takes a frame's bytes one by one as they come, in the 85 or so of
+// every 160 cycles the receive ISR leaves it (called, this took 40 cycles a byte and the loop
+// fell behind the line). The wait is counted in passes, not read from Timer1: a 16-bit timer read
 // with interrupts on could take a nested ISR's high byte.
 __attribute__((always_inline)) inline bool wait_byte(uint8_t *out, uint16_t max_passes) {
   const uint8_t tail = detail::g_rx_tail;
