@@ -172,6 +172,21 @@ void AvrAdapter::hook_callbacks() {
                           &AvrAdapter::on_uart_xon, this);
   avr_irq_register_notify(avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
                           &AvrAdapter::on_uart_xoff, this);
+  // After simavr's own handler of the register (registered first, it stores the value).
+  avr_register_io_write(avr_, static_cast<avr_uart_t *>(uart_)->rxc.enable.reg, &AvrAdapter::on_rxcie_write, this);
+}
+
+// The AVR wrote the register holding RXCIE0 (UCSR0B). On a real chip the receive interrupt is
+// the level RXC0 AND RXCIE0: turned on while a byte waits, it is taken at once. simavr 1.6 marks
+// the interrupt pending only when it raises RXC0 (when a byte comes in, and again every byte time
+// while its buffer holds one), so a byte waiting when RXCIE0 came on waited up to a byte time
+// more. Here it is made pending at once, as on the chip (`ctest -R vboard_uart_rxcie`).
+void AvrAdapter::on_rxcie_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
+  (void)addr;
+  (void)v;
+  avr_uart_t *uart = static_cast<avr_uart_t *>(static_cast<AvrAdapter *>(param)->uart_);
+  if (avr_regbit_get(avr, uart->rxc.enable) && avr_regbit_get(avr, uart->rxc.raised) && !uart->rxc.pending)
+    avr_raise_interrupt(avr, &uart->rxc);
 }
 
 // Flash size in bytes.

@@ -99,6 +99,7 @@ class AvrAdapter : public SwitchPinDriver {
   static void on_uart_output(avr_irq_t *irq, uint32_t value, void *param);
   static void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param);
   static void on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param);
+  static void on_rxcie_write(avr_t *avr, uint16_t addr, uint8_t v, void *param);  // addr: an avr_io_addr_t
   static uint64_t on_rx_timer(avr_t *avr, uint64_t when, void *param);
   static uint64_t on_udr_free_timer(avr_t *avr, uint64_t when, void *param);
   static uint64_t on_wake_timer(avr_t *avr, uint64_t when, void *param);
