@@ -4,28 +4,21 @@
 # that a Timer1 compare at OCR1A 0 is lost in some wraps (at 16 in none).
 import sys
 
+import reports
+
 NOPS = [1, 2, 3]  # timer_quirks.c's windows, in order
 OCRS = [0, 16]  # ... then its Timer1 runs (wraps_at)
 
 
 def fail(message):
-    print("timer-quirks FAILED: " + message)
-    sys.exit(1)
+    reports.fail("timer-quirks", message)
 
 
 def main():
-    rows = [l.strip().split(",") for l in open(sys.argv[1]) if not l.startswith("#")][1:]
-    events = sorted((int(r[2]), int(r[1]), int(r[3])) for r in rows if r[0] == "dir")
-    level = [0, 0]  # X and Y DIR
-    reports = []  # (X, Y) at each toggle of Z DIR
-    for _, motor, value in events:
-        if motor == 2:
-            reports.append(tuple(level))
-        elif motor < 2:
-            level[motor] = value
-    if len(reports) != 2 + len(NOPS) + len(OCRS):
-        fail(f"{len(reports)} reports in the trace, expected {2 + len(NOPS) + len(OCRS)}")
-    (before_a, before_b), (after_a, after_b) = reports[0], reports[1]
+    found = reports.read_reports(sys.argv[1])  # (X, Y) at each toggle of Z DIR
+    if len(found) != 2 + len(NOPS) + len(OCRS):
+        fail(f"{len(found)} reports in the trace, expected {2 + len(NOPS) + len(OCRS)}")
+    (before_a, before_b), (after_a, after_b) = found[0], found[1]
     print(f"  TIFR2 before TIFR2 = _BV(OCF2B): OCF2A={before_a} OCF2B={before_b}")
     print(f"  TIFR2 after  TIFR2 = _BV(OCF2B): OCF2A={after_a} OCF2B={after_b}")
     if (before_a, before_b) != (1, 1):
@@ -36,7 +29,7 @@ def main():
     if after_a:
         fail("OCF2A stayed set (the datasheet's behaviour), expected simavr 1.6's clear of every flag")
     print("  differs from the datasheet: writing one TIFR2 bit cleared OCF2A too (a real chip keeps it)")
-    ran = [x for x, _ in reports[2:2 + len(NOPS)]]
+    ran = [x for x, _ in found[2:2 + len(NOPS)]]
     for nops, r in zip(NOPS, ran):
         print(f"  sei; {'nop; ' * nops}cli: the waiting compare ISR {'ran' if r else 'did not run'}")
     # simavr 1.6 sets interrupt_state = -2 at sei and counts it up once an instruction.
@@ -46,7 +39,7 @@ def main():
         fail("sei and 2 or 3 nops did not run the waiting ISR")
     print("  differs from the datasheet: a waiting interrupt is taken two instructions after sei,"
           " not one (sei; nop; cli lets none in)")
-    lost = dict(zip(OCRS, (x for x, _ in reports[2 + len(NOPS):])))
+    lost = dict(zip(OCRS, (x for x, _ in found[2 + len(NOPS):])))
     for ocr in OCRS:
         print(f"  Timer1, OCR1A {ocr}: {'some compare matches lost' if lost[ocr] else 'a compare match every wrap'}")
     if lost[16]:

@@ -14,18 +14,10 @@ mkdir -p "$4"
 avr-gcc -mmcu=atmega328p -DF_CPU=16000000UL -Os -Wall -Wextra -o "$out.elf" "$here/$1.c"
 if [[ -f $here/${1}_client.py ]]; then
   # A probe with a client (NAME_client.py PTY) runs paced, the client writing to its pty.
-  "$3" --board uno --elf "$out.elf" --seconds "$2" --trace "$out.csv" --quiet >"$out.stdout" &
-  pid=$!
-  cleanup() { kill "$pid" 2>/dev/null || true; }
-  trap cleanup EXIT
-  for _ in $(seq 100); do
-    [ -s "$out.stdout" ] && break
-    sleep 0.05
-  done
-  pty=$(sed -n 's/^pty: //p' "$out.stdout")
-  [ -n "$pty" ] || { echo "no pty line"; exit 1; }
-  python3 "$here/${1}_client.py" "$pty"
-  wait "$pid"
+  source "$here/board.sh"
+  start_board "$out.stdout" /dev/stderr "$3" --board uno --elf "$out.elf" --seconds "$2" --trace "$out.csv" --quiet
+  python3 "$here/${1}_client.py" "$board_pty"
+  wait "$board_pid"
   trap - EXIT
 else
   "$3" --board uno --elf "$out.elf" --no-pacing --seconds "$2" --trace "$out.csv" --quiet

@@ -18,25 +18,15 @@ avr-gcc -mmcu=atmega328p -DF_CPU=16000000UL -Os -Wall -Wextra -o "$elf" "$here/s
 
 # 3 s of board time: with 1 s, a fresh-clone CI run's sanitizer pass (2 cores, tests in
 # parallel) started the echo client after the board had finished and its pty was gone.
-"$vboard" --board uno --elf "$elf" --seconds 3 --trace "$trace" --travel-steps $travel \
-  --start-position $start --chatter-us 300 --link "$work/tty" >"$out" 2>"$err" &
-pid=$!
-# Stops the board if the script exits early.
-cleanup() { kill "$pid" 2>/dev/null || true; }
-trap cleanup EXIT
+source "$here/board.sh"
+start_board "$out" "$err" "$vboard" --board uno --elf "$elf" --seconds 3 --trace "$trace" \
+  --travel-steps $travel --start-position $start --chatter-us 300 --link "$work/tty"
+[ "$(readlink "$work/tty")" = "$board_pty" ] || { echo "--link not made"; exit 1; }
 
-for _ in $(seq 100); do
-  [ -s "$out" ] && break
-  sleep 0.05
-done
-pty=$(sed -n 's/^pty: //p' "$out")
-[ -n "$pty" ] || { echo "no pty line"; cat "$err"; exit 1; }
-[ "$(readlink "$work/tty")" = "$pty" ] || { echo "--link not made"; exit 1; }
-
-python3 "$here/echo_client.py" "$pty"
+python3 "$here/echo_client.py" "$board_pty"
 
 rc=0
-wait "$pid" || rc=$?
+wait "$board_pid" || rc=$?
 trap - EXIT
 [ $rc -eq 0 ] || { echo "vboard exited with $rc"; cat "$err"; exit 1; }
 [ "$(wc -l <"$out")" -eq 1 ] || { echo "stdout has more than the pty line"; cat "$out"; exit 1; }

@@ -22,20 +22,13 @@
 #include <avr/io.h>
 #include <stdint.h>
 
+#include "report.h"
+
 #define BOTH (_BV(OCF2A) | _BV(OCF2B))
 
 volatile uint8_t g_ran;
 
 ISR(TIMER2_COMPA_vect) { g_ran = 1; }
-
-// One report: the two bits on X and Y DIR, then the mark on Z DIR.
-static void report(uint8_t x, uint8_t y) {
-  uint8_t d = PORTD & (uint8_t)~(_BV(PD5) | _BV(PD6));
-  if (x) d |= _BV(PD5);
-  if (y) d |= _BV(PD6);
-  PORTD = d;
-  PIND = _BV(PD7);
-}
 
 // Leaves the compare A interrupt pending with I = 0: a fresh flag, raised while it is enabled.
 static void pend(void) {

@@ -13,6 +13,8 @@
 #include <avr/io.h>
 #include <stdint.h>
 
+#include "report.h"
+
 // From the write's cycle to the ISR's TCNT1 read: the write's second cycle, one instruction,
 // the 4-cycle response, the vector's jmp and the ISR's prologue; about 30 on the chip.
 #define kPromptCycles 60
@@ -25,15 +27,6 @@ ISR(USART_RX_vect) {
   g_ran = 1;
   UCSR0B = _BV(RXEN0) | _BV(TXEN0);  // off again
   (void)UDR0;
-}
-
-// One report: the two bits on X and Y DIR, then the mark on Z DIR.
-static void report(uint8_t x, uint8_t y) {
-  uint8_t d = PORTD & (uint8_t)~(_BV(PD5) | _BV(PD6));
-  if (x) d |= _BV(PD5);
-  if (y) d |= _BV(PD6);
-  PORTD = d;
-  PIND = _BV(PD7);
 }
 
 int main(void) {
