@@ -33,6 +33,24 @@ struct IoffHistogram {
   }
 };
 IoffHistogram g_ioff_hist;
+// Debugging aid: STEPCHOIR_VBOARD_IOFFLOG=PATH ("%p": the process id) writes every
+// interrupts-off window after boot as "start_cycle start_pc_hex cycles" lines, to line late
+// edges up with what held them.
+struct IoffLog {
+  FILE *file = nullptr;
+  IoffLog() {
+    if (const char *p = std::getenv("STEPCHOIR_VBOARD_IOFFLOG")) {
+      std::string path = p;
+      const size_t at = path.find("%p");
+      if (at != std::string::npos) path.replace(at, 2, std::to_string(getpid()));
+      file = std::fopen(path.c_str(), "w");
+    }
+  }
+  ~IoffLog() {
+    if (file) std::fclose(file);
+  }
+};
+IoffLog g_ioff_log;
 }  // namespace
 
 // Builds the flash-word -> ISR map from the ISR code ranges.
@@ -83,6 +101,9 @@ void CpuProfiler::irq_off_end(const InstructionSample &s) {
   }
   const uint64_t window_cycles = s.cycle_after - off_start_cycle_;
   if (!g_ioff_hist.path.empty()) ++g_ioff_hist.counts[{off_start_pc_bytes_, window_cycles}];
+  if (g_ioff_log.file)
+    std::fprintf(g_ioff_log.file, "%llu %x %llu\n", static_cast<unsigned long long>(off_start_cycle_), off_start_pc_bytes_,
+                 static_cast<unsigned long long>(window_cycles));
   if (window_cycles > irq_off_max_cycles_) {
     irq_off_max_cycles_ = window_cycles;
     irq_off_max_pc_bytes_ = off_start_pc_bytes_;
