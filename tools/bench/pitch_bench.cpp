@@ -617,7 +617,11 @@ Worst worst_of(const PassResult &r) {
     if (by_motor.size() <= n.motor) by_motor.resize(n.motor + 1);
     by_motor[n.motor].insert(by_motor[n.motor].end(), n.residuals_us.begin(), n.residuals_us.end());
   }
-  for (const auto &v : by_motor) w.motor_p99_us = std::max(w.motor_p99_us, tr::percentile_nearest_rank(v, tr::kP99Quantile));
+  // A motor's p99 as a note's: of fewer than kMinEdgesForP99 edges (most of its notes lost at
+  // full line speed) it is their largest, which the max covers.
+  for (const auto &v : by_motor)
+    if (v.size() >= tr::kMinEdgesForP99)
+      w.motor_p99_us = std::max(w.motor_p99_us, tr::percentile_nearest_rank(v, tr::kP99Quantile));
   return w;
 }
 
@@ -801,7 +805,7 @@ std::string write_report(const Options &opt, const std::vector<PassResult> &pass
          "grid|, p99 (nearest rank) and max, shown only for notes within "
       << fixed(kWrongNoteCents, 0) << " cents of the target (others are a different note: the board did not play "
          "what was scheduled); the summary's p99s: each motor's over all its edges (each note's offset removed), "
-         "and the worst note's of those with "
+         "and the worst note's, of the motors and notes with "
       << tr::kMinEdgesForP99
       << " edges or more (of fewer, the p99 is their largest, which the max covers); min pulse = shortest STEP "
          "high time. Step ISRs = vectors "
