@@ -89,6 +89,9 @@ struct AtSlot {
 AtSlot g_q[cfg::kQueueSize];
 uint8_t g_q_used, g_q_put_idx, g_q_take_idx;
 uint8_t g_skew2;  // TCNT2 - TCNT1 / 8 (Timer2 ticks), set once at init
+#if defined(__AVR_ATmega2560__)
+uint16_t g_skew3;  // TCNT3 - TCNT1 (ticks), set once at init
+#endif
 
 // A timed strike on a sounding motor replaces an old edge due less than this before its time:
 // both would sound as one doubled step (a note change on the old note's own grid, as in a
@@ -118,9 +121,9 @@ __attribute__((noinline)) uint32_t now() {
 // as its third instruction when bit m of GPIOR0 is clear, and otherwise counts off a match
 // that comes before the edge's (g_wraps) or enters the handler without raising (a command).
 //
-// Chan<m>: the channel's registers. Timer1 counts CPU cycles (16 bits, a wrap every
-// 4.1 ms); Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every 16-bit
-// register access runs with interrupts off (the timers' TEMP byte is shared).
+// Chan<m>: the channel's registers. Timer1 (and the Mega's Timer3) counts CPU cycles (16 bits,
+// a wrap every 4.1 ms); the Uno's Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every
+// 16-bit register access runs with interrupts off (the timers' TEMP byte is shared).
 template <uint8_t M> struct Chan;
 
 // No flag is ever cleared by writing TIFR: the virtual board (simavr 1.6) clears every flag of
@@ -164,31 +167,36 @@ __attribute__((always_inline)) inline void settle8(volatile uint8_t &ocr, volati
 // overflow, after the instruction the overflow fell in (up to 5 cycles), and drops a compare due
 // before that: at OCR1x 0 or 1 a match is lost in some wraps (measured on both boards; 2 too by
 // simavr's code, with the Mega's 5-cycle instructions), and its edge comes a wrap (4.1 ms) late
-// (`ctest -R vboard_timer_quirks`). No OCR1x is set below kOcr1Min: such an edge rises at
+// (`ctest -R vboard_timer_quirks`; the Mega's Timer3 runs the same simavr code, and its
+// compares are held to the same floor). No OCR1x is set below kOcr1Min: such an edge rises at
 // most kOcr1Min cycles late (0.25 us, one edge in 16,000), its deadline kept. Timer2's compares
 // come at least one tick (8 cycles) after its overflow, past any instruction.
 const uint16_t kOcr1Min = 4;
 SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
-// Timer1, compare X.
-#define SC_CHAN_T1(M, X, SIBS)                                                          \
+// Timer1 or Timer3 (N), compare X; SKEW: the timer's count less Timer1's (0 for Timer1).
+#define SC_CHAN_16(M, N, X, SKEW, SIBS)                                                          \
   template <> struct Chan<M> {                                                                   \
     static const uint32_t kWrap = 65536ul;                                                       \
     typedef uint16_t Value;                                                                      \
-    static SC_AI Value value(uint32_t d) { return ocr1((uint16_t)d); }                           \
-    static SC_AI Value read() { return OCR1##X; }                                               \
-    static SC_AI void write(Value v) { OCR1##X = v; }                                           \
-    static SC_AI uint8_t snap() { return 0; }                                                   \
-    static SC_AI uint16_t until(uint16_t t, uint8_t) { const uint16_t a = (uint16_t)(OCR1##X + 1 - t); return a ? a : 0xFFFF; } \
+    typedef uint16_t Snap;                                                                       \
+    static SC_AI Value value(uint32_t d) { return ocr1((uint16_t)((uint16_t)d + (SKEW))); }      \
+    static SC_AI Value read() { return OCR##N##X; }                                             \
+    static SC_AI void write(Value v) { OCR##N##X = v; }                                         \
+    static SC_AI Snap snap() { return N == 1 ? 0 : TCNT##N; }                                    \
+    static SC_AI uint16_t until(uint16_t t, Snap tn) { const uint16_t a = (uint16_t)(OCR##N##X + 1 - (N == 1 ? t : tn)); return a ? a : 0xFFFF; } \
     static SC_AI uint8_t count(uint32_t half_on, uint16_t, uint16_t, uint16_t u) { return (uint8_t)((half_on - u) >> 16); } \
     static SC_AI void settle() { SIBS }                                                         \
-    static SC_AI bool waiting() { return TIFR1 & _BV(OCF1##X); }                                \
-    static SC_AI uint16_t ahead() { return (uint16_t)(OCR1##X - TCNT1); }                       \
-    static SC_AI void trigger() { SIBS OCR1##X = ocr1((uint16_t)(TCNT1 + cfg::kTriggerLeadTicks)); } \
+    static SC_AI bool waiting() { return TIFR##N & _BV(OCF##N##X); }                            \
+    static SC_AI uint16_t ahead() { return (uint16_t)(OCR##N##X - TCNT##N); }                   \
+    static SC_AI void trigger() { SIBS OCR##N##X = ocr1((uint16_t)(TCNT##N + cfg::kTriggerLeadTicks)); } \
   };
+#define SC_CHAN_T1(M, X, SIBS) SC_CHAN_16(M, 1, X, 0, SIBS)
+#define SC_CHAN_T3(M, X, SIBS) SC_CHAN_16(M, 3, X, g_skew3, SIBS)
 #define SC_CHAN_T2(M, X, SIBS)                                                                        \
   template <> struct Chan<M> {                                                                    \
     static const uint32_t kWrap = 2048ul;                                                         \
     typedef uint8_t Value;                                                                        \
+    typedef uint8_t Snap;                                                                         \
     static SC_AI Value value(uint32_t d) { return (uint8_t)(((uint16_t)d >> 3) + g_skew2); }     \
     static SC_AI Value read() { return OCR2##X; }                                                \
     static SC_AI void write(Value v) { OCR2##X = v; }                                            \
@@ -204,14 +212,19 @@ SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
 #define SC_S1(X) settle16(OCR1##X, TCNT1, TIFR1, _BV(OCF1##X));
 #define SC_S2(X) settle8(OCR2##X, TCNT2, TIFR2, _BV(OCF2##X));
 #if defined(__AVR_ATmega2560__)
-// X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer2 compare A, B (vectors 13 and 14, ahead of
-// the UART's 25 in priority; Timer3's 32 and 33 came after it, and its edges waited behind a
-// byte's ISR: the worst notes' p99 2.0-2.3 us at full line speed).
+// X, Y, Z: Timer1 compare A, B, C; E0, E1: Timer3 compare A, B (16 bits: a match to count off
+// every 4.1 ms). From 2026-12-01 to 12-02 E0 and E1 were on Timer2 (vectors 13 and 14, ahead of
+// the UART's 25 in priority, where Timer3's 32 and 33 come after it: its edges waited behind a
+// byte's ISR, 28 cycles off then). But an 8-bit Timer2 channel counts off a match every 128 us
+// (26 cycles off, 32 at the last), and those held the other motors' edges up: at full line speed
+// the worst note's p99 was 1.80-2.47 us on Timer2, 1.32-1.57 us since (18 runs), the worst
+// motor's 1.49-1.88 us then, 1.08-1.38 since.
 SC_CHAN_T1(0, A, SC_S1(B) SC_S1(C))
 SC_CHAN_T1(1, B, SC_S1(A) SC_S1(C))
 SC_CHAN_T1(2, C, SC_S1(A) SC_S1(B))
-SC_CHAN_T2(3, A, SC_S2(B))
-SC_CHAN_T2(4, B, SC_S2(A))
+#define SC_S3(X) settle16(OCR3##X, TCNT3, TIFR3, _BV(OCF3##X));
+SC_CHAN_T3(3, A, SC_S3(B))
+SC_CHAN_T3(4, B, SC_S3(A))
 #else
 // X, Y: Timer1 compare A, B; Z, A: Timer2 compare A, B.
 SC_CHAN_T1(0, A, SC_S1(B))
@@ -469,7 +482,7 @@ template <uint8_t M> __attribute__((always_inline)) inline bool arm(uint32_t d) 
     // The timers are read together with interrupts off (8 cycles); the time to the next match
     // is worked out after, from what was read.
     uint16_t t;
-    uint8_t snap;
+    typename C::Snap snap;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
       t = TCNT1;
       snap = C::snap();
@@ -700,8 +713,8 @@ SC_STEP_ENTRY(1, TIMER1_COMPB_vect, SC_RAISE_IO(0x11, 6))
 // Z: PL3, raised by writing its bit to PINL (0x109: a write of 1 toggles the port bit; STEP is
 // low before every raise), which needs no SREG save.
 SC_STEP_ENTRY(2, TIMER1_COMPC_vect, "push r24\n\tldi r24, 0x08\n\tsts 0x109, r24\n\tpop r24\n\t")
-SC_STEP_ENTRY(3, TIMER2_COMPA_vect, SC_RAISE_IO(0x02, 4))
-SC_STEP_ENTRY(4, TIMER2_COMPB_vect, SC_RAISE_IO(0x08, 1))
+SC_STEP_ENTRY(3, TIMER3_COMPA_vect, SC_RAISE_IO(0x02, 4))
+SC_STEP_ENTRY(4, TIMER3_COMPB_vect, SC_RAISE_IO(0x08, 1))
 #else
 // PORTD 0x0B, PORTB 0x05 (I/O addresses).
 static_assert(_SFR_IO_ADDR(PORTD) == 0x0B && _SFR_IO_ADDR(PORTB) == 0x05, "ports");
@@ -755,18 +768,31 @@ void init(uint8_t motor_count, const Wiring *wiring) {
     TCCR2A = 0;
     TCCR2B = _BV(CS21);  // CPU cycles / 8
     TCNT2 = 0;
+#if defined(__AVR_ATmega2560__)
+    TCCR3A = 0;
+    TCCR3B = _BV(CS30);  // CPU cycles
+    TCCR3C = 0;
+    TCNT3 = 0;
+#endif
     GTCCR = 0;
     // How the other timer stands against Timer1 (both started on the same cycle on a real
     // chip; an emulator may start them a few cycles apart).
     const uint16_t t1 = TCNT1;
     const uint8_t t2 = TCNT2;  // read 4 cycles after TCNT1's low byte
     g_skew2 = (uint8_t)(t2 - (uint8_t)((uint16_t)(t1 + 4) >> 3));
+#if defined(__AVR_ATmega2560__)
+    {
+      const uint16_t a = TCNT1;
+      const uint16_t b = TCNT3;  // read 4 cycles after TCNT1's low byte
+      g_skew3 = (uint16_t)(b - a - 4);
+    }
+#endif
     g_time_base = 0;
     // Every channel's interrupt stays on from here (a silent motor's matches return at once):
     // the virtual board never takes a flag raised while its interrupt was off.
 #if defined(__AVR_ATmega2560__)
     TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B) | _BV(OCIE1C);
-    TIMSK2 = _BV(OCIE2A) | _BV(OCIE2B);
+    TIMSK3 = _BV(OCIE3A) | _BV(OCIE3B);
 #else
     TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
     TIMSK2 = _BV(OCIE2A) | _BV(OCIE2B);

@@ -1,5 +1,5 @@
 // scheduler.h: motors step from timer compare channels, one channel per motor (Timer1 A/B
-// and Timer2 A/B on the Uno, Timer1 A/B/C and Timer2 A/B on the Mega); board time is Timer1,
+// and Timer2 A/B on the Uno, Timer1 A/B/C and Timer3 A/B on the Mega); board time is Timer1,
 // counting CPU cycles (1 tick = 62.5 ns at 16 MHz), extended to 32 bits from a base that
 // Timer0's compare moves on.
 //

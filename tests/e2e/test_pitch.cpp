@@ -129,10 +129,10 @@ void check_chords(const std::string &board_name, int pause_us, Bounds bounds) {
 // or five motors at once (one timer compare channel each, docs/ARCHITECTURE.md), measured
 // 2026-12-02 since the receive ISR's interrupts-off stretch was split: live traffic (3 runs),
 // worst motor's p99 1.64-1.79 us, worst note's (100+ edges) 1.79-1.97 us, max 2.5-2.7 us.
-// Frames at full line speed (Uno 10 runs, Mega 10): worst motor's p99 1.67-1.78 / 1.49-1.88 us,
-// worst note's 1.82-2.39 / 1.80-2.47 us, max 2.7-3.8 / 4.0-4.9 us. So every motor's p99 is held
-// to the target; a note's p99 (of its 100-4,000 edges: the second to fortieth largest) is not
-// yet, in about half the full-speed runs. (Before, one run in
+// Frames at full line speed (Uno 20 runs; Mega 18, E0 and E1 on Timer3): worst motor's p99
+// 1.65-1.81 / 1.08-1.38 us, worst note's 1.82-2.39 / 1.32-1.57 us, max 2.7-3.8 / 3.0-5.2 us. So
+// every motor's p99 is held to the target; a note's p99 (of its 100-4,000 edges: the second to
+// fortieth largest) is not yet on the Uno, in about half its full-speed runs. (Before, one run in
 // four had single edges 11-120 us late, all within 3 ms before a timed chord change: a visit
 // for its entry held up past the edge; a motor's next edge now takes a command when it is near.
 // And about one Mega run in 20 had an edge a Timer1 wrap, 4.1 ms, late: the virtual board drops

@@ -64,12 +64,12 @@ constexpr double kMicrosPerSecond = 1e6;
 constexpr double kBitsPerByte = 10;  // 8N1: start + 8 data + stop
 
 // The step ISRs, one timer compare channel per motor (firmware/stepchoir/scheduler.cpp): Timer1
-// A/B and Timer2 A/B on the Uno, Timer1 A/B/C and Timer2 A/B on the Mega.
+// A/B and Timer2 A/B on the Uno, Timer1 A/B/C and Timer3 A/B on the Mega.
 bool is_step_isr_vector(const std::string &board_name, int v) {
-  return board_name == "mega" ? v == 13 || v == 14 || (v >= 17 && v <= 19) : v == 7 || v == 8 || v == 11 || v == 12;
+  return board_name == "mega" ? (v >= 17 && v <= 19) || v == 32 || v == 33 : v == 7 || v == 8 || v == 11 || v == 12;
 }
 std::string step_isr_vectors(const std::string &board_name) {
-  return board_name == "mega" ? "13, 14, 17-19 (Timer2 A/B, Timer1 A/B/C)" : "7, 8, 11, 12 (Timer2 A/B, Timer1 A/B)";
+  return board_name == "mega" ? "17-19, 32, 33 (Timer1 A/B/C, Timer3 A/B)" : "7, 8, 11, 12 (Timer2 A/B, Timer1 A/B)";
 }
 
 // MCU name per board, for the report heading.
