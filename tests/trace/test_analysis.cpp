@@ -120,6 +120,27 @@ TEST_CASE("the constant offset is removed from the residuals", "[analysis]") {
   CHECK(fit.residual_p50_cycles == Approx(4));
 }
 
+TEST_CASE("residuals against a commanded grid carry the period's fraction and skip missing edges", "[analysis]") {
+  // period 1000.5 ticks (q8 256128): the firmware's deadlines from 5000 are 5000, 6000, 7001,
+  // 8001, 9002, ...
+  const uint32_t period_q8 = 256128;
+  const uint64_t start = 5000;
+  // on their deadlines (k = 0, 1, 2), k = 3 missing, k = 4 seven cycles late, one 3 early at k = 6
+  std::vector<uint64_t> edges = {5000, 6000, 7001, 9002 + 7, 11003 - 3};
+  std::vector<double> r = commanded_grid_residuals_cycles(edges, start, period_q8);
+  REQUIRE(r.size() == edges.size());
+  CHECK(r[0] == 0);
+  CHECK(r[1] == 0);
+  CHECK(r[2] == 0);
+  CHECK(r[3] == 7);
+  CHECK(r[4] == -3);
+  // the grid's own offset is kept: the same edges 40 cycles later read 40 later
+  for (uint64_t &e : edges) e += 40;
+  std::vector<double> shifted = commanded_grid_residuals_cycles(edges, start, period_q8);
+  for (size_t k = 0; k < r.size(); ++k) CHECK(shifted[k] == r[k] + 40);
+  CHECK(commanded_grid_residuals_cycles(edges, start, 0).empty());
+}
+
 TEST_CASE("fit rejects what it cannot fit", "[analysis]") {
   CHECK_THROWS_AS(fit_edges({}, 1000, synth::kFCpuHz), std::invalid_argument);
   CHECK_THROWS_AS(fit_edges({5}, 1000, synth::kFCpuHz), std::invalid_argument);

@@ -36,6 +36,20 @@ std::vector<double> grid_residuals_cycles(const std::vector<uint64_t>& edge_cycl
   return residual;
 }
 
+std::vector<double> commanded_grid_residuals_cycles(const std::vector<uint64_t>& edge_cycles,
+                                                    uint64_t start_cycle, uint32_t period_q8) {
+  std::vector<double> residual;
+  residual.reserve(edge_cycles.size());
+  if (period_q8 == 0) return residual;
+  for (uint64_t e : edge_cycles) {
+    const int64_t since = int64_t(e - start_cycle);  // may be a little before the grid's start
+    const int64_t k = std::max<int64_t>(0, std::llround(double(since) * 256.0 / double(period_q8)));
+    const int64_t ideal = int64_t((uint64_t(k) * period_q8) >> 8);
+    residual.push_back(double(since - ideal));
+  }
+  return residual;
+}
+
 PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period_cycles,
                    double f_cpu_hz) {
   if (edge_cycles.size() < 2) throw std::invalid_argument("fit_edges: need at least 2 edges");

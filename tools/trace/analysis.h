@@ -54,6 +54,14 @@ PitchFit fit_edges(const std::vector<uint64_t>& edge_cycles, double ideal_period
 std::vector<double> grid_residuals_cycles(const std::vector<uint64_t>& edge_cycles,
                                           double ideal_period_cycles);
 
+// Signed residuals of edges against a commanded grid, the firmware's deadlines for a note whose
+// first edge is due at start_cycle: start + floor(k * period_q8 / 256) (the period's 8
+// fractional bits carried), k the grid index nearest each edge. No offset is removed: a motor's
+// residuals over all its notes, less their mean, are its edges against the grid with one
+// constant offset removed.
+std::vector<double> commanded_grid_residuals_cycles(const std::vector<uint64_t>& edge_cycles,
+                                                    uint64_t start_cycle, uint32_t period_q8);
+
 // The quantile a jitter "p99" is (percentile_nearest_rank).
 constexpr double kP99Quantile = 0.99;
 
