@@ -38,8 +38,9 @@ const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 }  // namespace
 
 // UART receive ISR. Who: a byte arrived (every 10 us at most). Assembly. Interrupts are off
-// for three short stretches a byte, so that a STEP edge due meanwhile waits little (by the
-// instruction count, entry included):
+// for four short stretches, so that a STEP edge due meanwhile waits little (by the instruction
+// count on the Uno, entry included; a cycle more on the Mega, whose entry and reti take one
+// more):
 //   - 14 cycles at entry: it turns its own interrupt off (kUartRxOff) and interrupts back on.
 //     The interrupts that nest from there may be long (a motor's handler): each handler turns
 //     the receive interrupt back on first (rx_resume), and a receive ISR nested in one takes
@@ -49,17 +50,17 @@ const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 //     nests in this one; the main loop, the only reader, runs only when no ISR does); then,
 //     interrupts on, it stores the byte, or a frame delimiter for a byte the UART flagged (a
 //     framing error, or bytes lost before it: the frame it was in fails and the decoder
-//     resyncs), and counts the loss. A ring the main loop let fill up laps: its bytes are
-//     lost, counted once. It takes every byte the UART holds before it leaves.
+//     resyncs), and counts the loss (interrupts off for those 8 cycles: a nested receive ISR
+//     counts too). A ring the main loop let fill up laps: its bytes are lost, counted once. It
+//     takes every byte the UART holds before it leaves.
 //   - At exit: 8 cycles for the last check (RXC0 clear) up to sei, then 7 from the SREG
 //     restore to reti. (The receive interrupt is turned back on in between, interrupts on: a
-//     byte come since enters at once on a real chip, and within a byte time on the virtual
-//     board, which raises RXC0's interrupt again every byte time while its buffer holds one.)
+//     byte come since enters at once, on a real chip and on the virtual board, which makes the
+//     interrupt pending when RXCIE0 is written on with RXC0 set: vboard_uart_rxcie.)
 // About 75 cycles for a lone byte, entry included; 31 for each further one it finds waiting.
-// Before (to 2026-12-02) it kept interrupts off for its first 28 cycles in one stretch (60 a
-// byte in all): at full line speed the motors' jitter p99 was 1.65-2.43 us, and 1.49-1.88 us
-// since (build/bin/test_e2e "<board>: every motor in tune across MIDI 24-108 - frames at full
-// speed", 25 runs a board before, 10 since).
+// Before (to 2026-12-02) it kept interrupts off for its first 28 cycles in one stretch (55 a
+// byte in all), and those held most of the motors' late edges up at full line speed: figures
+// before and since in docs/ARCHITECTURE.md ("Measured").
 ISR(SC_UART_RX_VECT, ISR_NAKED) {
   __asm__ __volatile__(
       "push r24\n\t"
@@ -90,10 +91,13 @@ ISR(SC_UART_RX_VECT, ISR_NAKED) {
       "cp r30, r31\n\t"
       "brne 4f\n\t"
       "3:\n\t"
+      "cli\n\t"  // a loss (rare): counted with interrupts off, a nested receive ISR may count too
       "lds r31, %[errors]\n\t"
       "inc r31\n\t"
-      "breq 4f\n\t"
+      "breq 5f\n\t"
       "sts %[errors], r31\n\t"
+      "5:\n\t"
+      "sei\n\t"
       "4:\n\t"
       "dec r30\n\t"
       "andi r30, %[mask]\n\t"

@@ -36,7 +36,7 @@ __attribute__((always_inline)) inline void rx_resume() { UCSR0B = kUartOn; }
 // Called from: main loop (wait_byte's loop, after each byte the main loop takes, and send()).
 // Hands the UART the next byte of the transmit ring when its data register is empty. The
 // transmitter has no ISR: at 1,000,000 baud one took 70-85 cycles of every 160 while a reply
-// went out, on top of the receive ISR's 60 then, and held up the motors' handlers. Fed once a
+// went out, on top of the receive ISR's 55 then, and held up the motors' handlers. Fed once a
 // received byte (or a wait loop's pass), a reply still goes out at the line's full speed.
 __attribute__((always_inline)) inline void feed_tx() {
   const uint8_t tail = detail::g_tx_tail;

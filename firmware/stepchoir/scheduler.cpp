@@ -218,7 +218,7 @@ SC_AI uint16_t ocr1(uint16_t v) { return v < kOcr1Min ? kOcr1Min : v; }
 // byte's ISR, 28 cycles off then). But an 8-bit Timer2 channel counts off a match every 128 us
 // (26 cycles off, 32 at the last), and those held the other motors' edges up: at full line speed
 // the worst note's p99 was 1.80-2.47 us on Timer2, 1.32-1.57 us since (18 runs), the worst
-// motor's 1.49-1.88 us then, 1.08-1.38 since.
+// motor's 1.49-1.88 us then, 1.08-1.38 since (each note's own grid, one offset per note).
 SC_CHAN_T1(0, A, SC_S1(B) SC_S1(C))
 SC_CHAN_T1(1, B, SC_S1(A) SC_S1(C))
 SC_CHAN_T1(2, C, SC_S1(A) SC_S1(B))
@@ -479,8 +479,8 @@ template <uint8_t M> __attribute__((always_inline)) inline bool arm(uint32_t d) 
   const bool check_left = est < 32768;
   const uint32_t half_on = (uint32_t)est + C::kWrap / 2;
   for (;;) {
-    // The timers are read together with interrupts off (8 cycles); the time to the next match
-    // is worked out after, from what was read.
+    // The timers are read together with interrupts off (6-10 cycles: Timer1 alone, or with
+    // Timer2 or Timer3); the time to the next match is worked out after, from what was read.
     uint16_t t;
     typename C::Snap snap;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {

@@ -645,7 +645,9 @@ std::string summary_markdown(const PassResult &r) {
   if (w.wrong_notes) o << " (" << w.wrong_notes << " off by > " << fixed(kWrongNoteCents, 0) << " cents: a lost or late `at` frame)";
   if (w.unmeasured) o << " (" << w.unmeasured << " with < 2 edges)";
   o << " |\n";
-  o << "| worst motor's jitter p99, all its edges" << scope << " | " << fixed(w.motor_p99_us, 3) << " us |\n";
+  o << "| worst motor's jitter p99, all its edges" << scope << " | "
+    << (w.motor_p99_us > 0 ? fixed(w.motor_p99_us, 3) + " us" : std::string("n/a (no motor of ") + std::to_string(tr::kMinEdgesForP99) + "+ edges)")
+    << " |\n";
   o << "| worst note's jitter p99, notes of " << tr::kMinEdgesForP99 << "+ edges" << scope << " | " << fixed(w.p99_us, 3)
     << " us |\n";
   o << "| worst jitter max" << scope << " | " << fixed(w.max_us, 3) << " us |\n";

@@ -21,7 +21,9 @@ import collections
 import subprocess
 import sys
 
-STUB_TO_RAISE = 16  # cycles from a match to its stub's raise, about (13 by the instruction count)
+# Cycles from a match to its stub's raise: 13 by the instruction count, and up to 3 more while
+# the instruction the match fell in finishes.
+STUB_TO_RAISE = 16
 
 
 def symbols(elf):

@@ -19,7 +19,7 @@ def main():
         fail(f"{len(found)} reports in the trace, expected {MIN_REPORTS} or more")
     prompt = sum(1 for x, _ in found if x)
     came = sum(1 for _, y in found if y)
-    print(f"  {len(found)} bytes: the receive ISR came for {came}, at once (within 60 cycles of RXCIE0) for {prompt}")
+    print(f"  {len(found)} bytes: the receive ISR came for {came}, at once (within uart_rxcie.c's kPromptCycles of RXCIE0) for {prompt}")
     if came != len(found):
         fail("a waiting byte's receive interrupt never came once RXCIE0 was on")
     if prompt != len(found):
