@@ -200,7 +200,11 @@ std::vector<double> onset_latencies(const std::string &board, int notes, uint8_t
 // reported apart. Bounds are regression guards, measured in simavr cycles: warm notes p50 93-95
 // us, p99 112-124 us over 100 notes a board (2026-12-01; 74-78 us with the single-compare step
 // ISR, whose main loop raised the first edge itself), at most 131 us for the first; a MIDI
-// cable takes 960 us for one note-on.
+// cable takes 960 us for one note-on. Since 2026-12-02 (a motor's next edge takes a command
+// when it is near; the receive ISR split, about 20 cycles a byte more) p50 96 us, p99 (of 99
+// notes: their largest) 105-154 us in 10 runs a board: its first edge's arming held up past its
+// 18 us lead by the ISRs nested meanwhile, once or twice, each retry 18 us further ahead. The p99
+// guard is 170 us (it was 150, and one fresh-clone CI run measured 154).
 TEST_CASE("link: a note starts within 0.3 ms of its frame's last byte (uno and mega)") {
   for (const std::string board : {"uno", "mega"}) {
     const char *notes_env = std::getenv("STEPCHOIR_ONSET_NOTES");  // more notes, by hand
@@ -218,7 +222,7 @@ TEST_CASE("link: a note starts within 0.3 ms of its frame's last byte (uno and m
                 "(drivers waking) %.1f us\n",
                 board.c_str(), lat.size(), lat.front() * us, lat[lat.size() / 2] * us, p99, lat.back() * us,
                 p99 - 10.0, first);
-    CHECK(p99 < 150.0);
+    CHECK(p99 < 170.0);
     CHECK(lat.back() * us < 300.0);
     CHECK(first < 300.0);
   }
