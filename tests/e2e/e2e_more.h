@@ -3,6 +3,7 @@
 #ifndef STEPCHOIR_TESTS_E2E_MORE_H
 #define STEPCHOIR_TESTS_E2E_MORE_H
 
+#include <algorithm>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -119,6 +120,20 @@ inline uint32_t start_note_at(stepchoir::Board &b, uint8_t motor, uint32_t perio
 inline int64_t cycle_offset(const sc::trace::MotorTrace &m, uint32_t at_ticks) {
   if (m.steps.empty()) throw std::runtime_error("cycle_offset: the note left no step in the trace");
   return static_cast<int64_t>(m.steps.front().rise_cycle) - static_cast<int64_t>(at_ticks);
+}
+
+// The same from a note's first `edges` steps on its grid (the k-th due at at_ticks +
+// floor(k * period_q8 / 256)): their median offset, which one edge held up by an interrupt
+// (up to about 2 us) does not move.
+inline int64_t grid_cycle_offset(const sc::trace::MotorTrace &m, uint32_t at_ticks, uint32_t period_q8,
+                                 size_t edges = 41) {
+  if (m.steps.empty()) throw std::runtime_error("grid_cycle_offset: the note left no step in the trace");
+  std::vector<int64_t> d;
+  for (size_t k = 0; k < m.steps.size() && k < edges; ++k)
+    d.push_back(static_cast<int64_t>(m.steps[k].rise_cycle) - static_cast<int64_t>(at_ticks) -
+                static_cast<int64_t>((uint64_t(k) * period_q8) >> 8));
+  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+  return d[d.size() / 2];
 }
 
 // Board ticks for a duration in seconds.
