@@ -3,13 +3,14 @@
 #ifndef STEPCHOIR_TESTS_E2E_MORE_H
 #define STEPCHOIR_TESTS_E2E_MORE_H
 
-#include <algorithm>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -19,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "analysis.h"
 #include "board.h"
 #include "config.h"
 #include "e2e_util.h"
@@ -128,12 +130,12 @@ inline int64_t cycle_offset(const sc::trace::MotorTrace &m, uint32_t at_ticks) {
 inline int64_t grid_cycle_offset(const sc::trace::MotorTrace &m, uint32_t at_ticks, uint32_t period_q8,
                                  size_t edges = 41) {
   if (m.steps.empty()) throw std::runtime_error("grid_cycle_offset: the note left no step in the trace");
-  std::vector<int64_t> d;
-  for (size_t k = 0; k < m.steps.size() && k < edges; ++k)
-    d.push_back(static_cast<int64_t>(m.steps[k].rise_cycle) - static_cast<int64_t>(at_ticks) -
-                static_cast<int64_t>((uint64_t(k) * period_q8) >> 8));
-  std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
-  return d[d.size() / 2];
+  std::vector<uint64_t> rises;
+  for (size_t k = 0; k < m.steps.size() && k < edges; ++k) rises.push_back(m.steps[k].rise_cycle);
+  // against the grid from the first edge, then the first edge against at_ticks
+  std::vector<double> r = sc::trace::commanded_grid_residuals_cycles(rises, rises.front(), period_q8);
+  std::nth_element(r.begin(), r.begin() + std::ptrdiff_t(r.size() / 2), r.end());
+  return cycle_offset(m, at_ticks) + static_cast<int64_t>(std::llround(r[r.size() / 2]));
 }
 
 // Board ticks for a duration in seconds.

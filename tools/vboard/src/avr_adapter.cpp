@@ -209,13 +209,6 @@ void AvrAdapter::set_end_cycle(uint64_t end_cycle) {
 }
 
 namespace {
-// "%p" in a debugging aid's path becomes the process id: one file per process when several run.
-std::string with_pid(std::string path) {
-  const size_t pid_at = path.find("%p");
-  if (pid_at != std::string::npos) path.replace(pid_at, 2, std::to_string(getpid()));
-  return path;
-}
-
 // Cycles spent at each flash address, written at exit (see STEPCHOIR_VBOARD_PCPROFILE).
 struct PcProfile {
   std::string path;

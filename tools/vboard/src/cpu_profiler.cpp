@@ -3,47 +3,26 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <map>
 #include <string>
 #include <unistd.h>
 
 namespace vboard {
+std::string with_pid(std::string path) {
+  const size_t pid_at = path.find("%p");
+  if (pid_at != std::string::npos) path.replace(pid_at, 2, std::to_string(getpid()));
+  return path;
+}
+
 namespace {
-// Debugging aid: STEPCHOIR_VBOARD_IOFFHIST=PATH ("%p": the process id) counts the
-// interrupts-off windows by where they start and how long they are, and writes
-// "start_pc_hex cycles count" lines to PATH at exit (map the addresses with avr-addr2line).
-struct IoffHistogram {
-  std::string path;
-  std::map<std::pair<uint32_t, uint64_t>, uint64_t> counts;
-  IoffHistogram() {
-    if (const char *p = std::getenv("STEPCHOIR_VBOARD_IOFFHIST")) {
-      path = p;
-      const size_t at = path.find("%p");
-      if (at != std::string::npos) path.replace(at, 2, std::to_string(getpid()));
-    }
-  }
-  ~IoffHistogram() {
-    if (path.empty()) return;
-    if (FILE *f = std::fopen(path.c_str(), "w")) {
-      for (const auto &c : counts)
-        std::fprintf(f, "%x %llu %llu\n", c.first.first, static_cast<unsigned long long>(c.first.second),
-                     static_cast<unsigned long long>(c.second));
-      std::fclose(f);
-    }
-  }
-};
-IoffHistogram g_ioff_hist;
 // Debugging aid: STEPCHOIR_VBOARD_IOFFLOG=PATH ("%p": the process id) writes every
 // interrupts-off window after boot as "start_cycle start_pc_hex cycles" lines, to line late
-// edges up with what held them.
+// edges up with what held them (counted by start address and length, the same lines say what
+// an edge due at a random moment waits behind).
 struct IoffLog {
   FILE *file = nullptr;
   IoffLog() {
     if (const char *p = std::getenv("STEPCHOIR_VBOARD_IOFFLOG")) {
-      std::string path = p;
-      const size_t at = path.find("%p");
-      if (at != std::string::npos) path.replace(at, 2, std::to_string(getpid()));
-      file = std::fopen(path.c_str(), "w");
+      file = std::fopen(with_pid(p).c_str(), "w");
     }
   }
   ~IoffLog() {
@@ -100,7 +79,6 @@ void CpuProfiler::irq_off_end(const InstructionSample &s) {
     return;
   }
   const uint64_t window_cycles = s.cycle_after - off_start_cycle_;
-  if (!g_ioff_hist.path.empty()) ++g_ioff_hist.counts[{off_start_pc_bytes_, window_cycles}];
   if (g_ioff_log.file)
     std::fprintf(g_ioff_log.file, "%llu %x %llu\n", static_cast<unsigned long long>(off_start_cycle_), off_start_pc_bytes_,
                  static_cast<unsigned long long>(window_cycles));

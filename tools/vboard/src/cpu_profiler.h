@@ -4,8 +4,12 @@
 
 #include <cstdint>
 #include <vector>
+#include <string>
 
 namespace vboard {
+
+// "%p" in a debugging aid's path becomes the process id: one file per process when several run.
+std::string with_pid(std::string path);
 
 // An interrupt service routine's code range in flash (byte addresses, end exclusive).
 struct IsrRange {
