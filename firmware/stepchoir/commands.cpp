@@ -158,10 +158,6 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
   return rc;
 }
 
-void Commands::on_bytes(const uint8_t *bytes, uint8_t n) {
-  for (uint8_t i = 0; i < n; ++i) on_byte(bytes[i]);  // push() inlined, on_frame() not
-}
-
 void Commands::poll() {
   const uint32_t now = hal::now_ticks();
   if (frame_seen_) {

@@ -22,18 +22,14 @@ class Commands {
   // Called from: setup(). Defaults: every motor allowed kPeriodQ8Min..kPeriodQ8Max.
   void init();
 
-  // Called from: main loop (tests, fuzzing), for each byte received. Decodes frames and runs
-  // their handlers.
+  // Called from: main loop (take_bytes in stepchoir.ino; tests, fuzzing), for each byte
+  // received. Decodes frames and runs their handlers. Inlined: a byte costs about 60 cycles
+  // (the line brings one every 160), so the loop keeps up with the line and a frame is handled
+  // right after its last byte.
   void on_byte(uint8_t byte) {
     const uint8_t rc = decoder_.push(byte);
     if (rc != sc::kFrameNone) on_frame(rc);
   }
-
-  // Called from: main loop. Feeds n received bytes, in order. The decoder is inlined here:
-  // a byte costs about 60 cycles (the line brings one every 160, the receive ISR takes about 75
-  // for a lone byte),
-  // so the loop keeps up with the line and a frame is handled right after its last byte.
-  void on_bytes(const uint8_t *bytes, uint8_t n);
 
   // Called from: main loop. True while a frame's bytes are coming in (its delimiter not yet).
   bool in_frame() const { return decoder_.in_frame(); }

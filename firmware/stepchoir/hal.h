@@ -1,5 +1,5 @@
 // hal.h: what the command layer needs from the hardware. The AVR build implements it in
-// scheduler.cpp, step_driver.cpp and link.cpp; the host tests implement it with a recorder.
+// hal.cpp; the host tests implement it with a recorder (tests/firmware/fake_hal.cpp).
 //
 // Every function here is called from the main loop only (never from an ISR).
 #ifndef STEPCHOIR_HAL_H

@@ -7,7 +7,7 @@
 #include <util/atomic.h>
 
 #include "config.h"
-#include "hal.h"
+#include "src/stepchoir_protocol.h"
 
 #if defined(USART0_RX_vect)
 #define SC_UART_RX_VECT USART0_RX_vect
@@ -137,11 +137,7 @@ void begin() {
   UDR0 = sc::kDelimiter;
 }
 
-}  // namespace link
-
-namespace hal {
-
-void send(const uint8_t *payload, uint8_t len) {
+void send_frame(const uint8_t *payload, uint8_t len) {
   uint8_t frame[sc::kMaxFrameWire];
   const uint8_t n = sc::encode_frame(payload, len, frame);
   const uint8_t used = (uint8_t)((g_tx_head - g_tx_tail) & kTxMask);
@@ -150,11 +146,11 @@ void send(const uint8_t *payload, uint8_t len) {
     g_tx[g_tx_head] = frame[i];
     g_tx_head = (uint8_t)((g_tx_head + 1) & kTxMask);
   }
-  link::feed_tx();
+  feed_tx();
 }
 
-uint16_t uart_overruns() { return g_rx_errors; }
+uint8_t rx_errors() { return g_rx_errors; }
 
-void reset_uart_overruns() { g_rx_errors = 0; }
+void reset_rx_errors() { g_rx_errors = 0; }
 
-}  // namespace hal
+}  // namespace link

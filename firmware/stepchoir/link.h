@@ -27,6 +27,15 @@ const uint8_t kUartRxOff = _BV(RXEN0) | _BV(TXEN0);
 // Called from: setup(). Configures UART0 and its interrupts.
 void begin();
 
+// Called from: main loop. Queues one encoded reply frame for the UART; drops it when the
+// transmit ring is full.
+void send_frame(const uint8_t *payload, uint8_t len);
+
+// Called from: main loop. Bytes the receiver lost (hardware overrun, framing error or a full
+// ring; saturates at 255), and its reset.
+uint8_t rx_errors();
+void reset_rx_errors();
+
 // Called from: every ISR that may run long nested in the receive ISR (the motors' handlers),
 // first thing, interrupts on. Turns the receive interrupt back on, which the receive ISR turns
 // off while it runs: a byte that comes meanwhile enters at once (a receive ISR nested in

@@ -52,6 +52,11 @@ struct Motion {
   uint32_t ramp_q8;           // period shrink per step during the ramp
 };
 
+// Called from: anywhere. Board time in ticks (CPU cycles since the step timer started, about
+// 1 ms after reset), wrapping at 2^32: Timer1's count extended to 32 bits. Interrupts off for
+// about 14 cycles.
+uint32_t now();
+
 // Called from: setup(). Sets Timer1 running, pins as outputs, carriages at mid travel.
 void init(uint8_t motor_count, const Wiring *wiring);
 
@@ -61,8 +66,34 @@ void set_motion(uint8_t m, const Motion &motion);
 // Called from: main loop, every pass. Takes the timestamped entries due within kTakeTicks.
 void poll();
 
-// Called from: main loop. Silences every motor at once.
+// Called from: main loop. Silences every motor at once and empties the timed queue.
 void silence_all();
+
+// Called from: main loop. Motor m plays period_q8 (ticks q8; sc::kPeriodSilent = silence) from
+// now on, keeping the phase of a sounding motor. The caller checked the range and woke the
+// driver.
+void set_period(uint8_t m, uint32_t period_q8);
+
+// Called from: main loop. The timed queue (timed_queue.h): entries in use, and one more (the
+// caller checked queue_used() < cfg::kQueueSize; entries in time order).
+uint8_t queue_used();
+void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
+
+// What the step path counted since power-up or reset_counters(), for the status reply.
+struct Counters {
+  uint16_t reversals;
+  uint16_t late_edges;    // edges a handler raised itself (its compare armed too late)
+  uint8_t motor_fault;    // sc::ErrorCode of the last stuck switch, 0 if none
+  uint8_t late_entries;   // timed entries made after their time (wrapping; not reset)
+  uint8_t late_motor;     // the last one's motor
+};
+// Called from: main loop. A consistent copy (interrupts off for about 20 cycles).
+Counters counters();
+// Called from: main loop. Zeroes reversals, late_edges and motor_fault.
+void reset_counters();
+
+// Called from: main loop. Motor m's position, direction, sounding and fault flags.
+void motor_status(uint8_t m, sc::StatusMotor *out);
 
 }  // namespace sched
 

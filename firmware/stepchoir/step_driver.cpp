@@ -1,10 +1,9 @@
-// step_driver.cpp: StepDriver on the AVR, and the board-level hal functions built on it.
+// step_driver.cpp: StepDriver on the AVR, and the board's set of drivers (drivers::).
 #include "step_driver.h"
 
 #include <util/delay.h>
 
 #include "boards/board.h"
-#include "hal.h"
 #include "microstep.h"
 #include "pin_io.h"
 #include "scheduler.h"
@@ -59,47 +58,6 @@ namespace {
 StepDriver g_drivers[board::active::kMotorCount];
 }  // namespace
 
-namespace hal {
-
-uint8_t motor_count() { return board::active::kMotorCount; }
-
-const char *board_name() { return board::active::kName; }
-
-uint8_t endstops(uint8_t m) {
-  const board::MotorPins &p = board::active::kMotors[m];
-  uint8_t e = 0;
-  if (p.min_switch.wired()) e |= sc::kEndstopMin;
-  if (p.max_switch.wired()) e |= sc::kEndstopMax;
-  if (board::same_pin(p.min_switch, p.max_switch)) e |= sc::kEndstopShared;
-  return e;
-}
-
-uint8_t configure(const sc::ConfigBody &c) {
-  StepDriver &d = g_drivers[c.motor];
-  if (!d.set_microsteps(c.driver, c.microsteps)) return sc::kErrConfig;
-  d.set_active_high(c.endstop_active_high);
-  sched::Motion m;
-  m.travel_steps = c.travel_steps;
-  m.pulse_ticks = (uint16_t)(c.pulse_us * (F_CPU / 1000000ul));
-  m.switch_active_high = c.endstop_active_high;
-  m.start_period_q8 = c.start_period_q8;
-  m.ramp_q8 = c.accel_q8;
-  sched::set_motion(c.motor, m);
-  return sc::kErrNone;
-}
-
-void stop_all() {
-  sched::silence_all();
-  for (uint8_t m = 0; m < board::active::kMotorCount; ++m) g_drivers[m].enable(false);
-}
-
-bool drivers_enabled() {
-  for (uint8_t m = 0; m < board::active::kMotorCount; ++m)
-    if (g_drivers[m].enabled()) return true;
-  return false;
-}
-
-}  // namespace hal
 
 namespace drivers {
 
@@ -124,6 +82,30 @@ bool enable_for(uint8_t m) {
     g_drivers[m].enable(true);
   }
   return true;
+}
+
+uint8_t configure(const sc::ConfigBody &c) {
+  StepDriver &d = g_drivers[c.motor];
+  if (!d.set_microsteps(c.driver, c.microsteps)) return sc::kErrConfig;
+  d.set_active_high(c.endstop_active_high);
+  sched::Motion m;
+  m.travel_steps = c.travel_steps;
+  m.pulse_ticks = (uint16_t)(c.pulse_us * (F_CPU / 1000000ul));
+  m.switch_active_high = c.endstop_active_high;
+  m.start_period_q8 = c.start_period_q8;
+  m.ramp_q8 = c.accel_q8;
+  sched::set_motion(c.motor, m);
+  return sc::kErrNone;
+}
+
+void disable_all() {
+  for (uint8_t m = 0; m < board::active::kMotorCount; ++m) g_drivers[m].enable(false);
+}
+
+bool any_enabled() {
+  for (uint8_t m = 0; m < board::active::kMotorCount; ++m)
+    if (g_drivers[m].enabled()) return true;
+  return false;
 }
 
 }  // namespace drivers

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "boards/pins.h"
+#include "src/stepchoir_protocol.h"
 
 class StepDriver {
  public:
@@ -50,4 +51,11 @@ void begin();
 // Called from: main loop. Enables motor m's driver (and those sharing its ENABLE pin); true
 // when it was disabled.
 bool enable_for(uint8_t m);
+// Called from: main loop. Applies a motor configuration (microstep pins, switch level, the
+// motor's motion settings); sc::kErrConfig when the driver lacks the microstep mode.
+uint8_t configure(const sc::ConfigBody &c);
+// Called from: main loop. Every driver off (ENABLE at its inactive level).
+void disable_all();
+// Called from: main loop. True when any driver is enabled.
+bool any_enabled();
 }  // namespace drivers
