@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "analysis.h"
-#include "board.h"
-#include "config.h"
+#include "board/board.h"
+#include "config/config.h"
 #include "e2e_util.h"
 #include "trace.h"
 

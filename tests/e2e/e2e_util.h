@@ -11,8 +11,8 @@
 #include <thread>
 #include <vector>
 
-#include "board.h"
-#include "pitch.h"
+#include "board/board.h"
+#include "core/pitch.h"
 #include "vboard_process.h"
 
 namespace e2e {

@@ -13,7 +13,7 @@
 #include <string>
 
 #include "child_process.h"
-#include "midi_event.h"
+#include "core/midi_event.h"
 
 // A private JACK server with the dummy driver, no realtime; JACK clients of this process and
 // its children find it through JACK_DEFAULT_SERVER.

@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "analysis.h"
+#include "core/pitch.h"
 #include "e2e_more.h"
 #include "e2e_util.h"
-#include "pitch.h"
 #include "trace.h"
 
 using namespace stepchoir;

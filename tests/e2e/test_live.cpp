@@ -25,9 +25,9 @@
 #include <vector>
 
 #include "analysis.h"
+#include "core/midi_event.h"
 #include "e2e_util.h"
 #include "jack_rig.h"
-#include "midi_event.h"
 #include "trace.h"
 
 namespace tr = sc::trace;

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/pitch.h"
 #include "e2e_util.h"
-#include "pitch.h"
 #include "trace.h"
 
 using namespace stepchoir;

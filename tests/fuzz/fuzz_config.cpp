@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "config.h"
+#include "config/config.h"
 
 // Called by libFuzzer with each input.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {

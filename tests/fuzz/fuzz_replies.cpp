@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "board.h"
+#include "board/board.h"
 #include "stepchoir_protocol.h"
 
 // Called by libFuzzer with each input.

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "pitch.h"
+#include "core/pitch.h"
 #include "song/gcode.h"
 #include "song/song.h"
 

@@ -11,9 +11,9 @@
 #include <utility>
 #include <vector>
 
-#include "allocator.h"
-#include "midi_event.h"
-#include "pitch.h"
+#include "core/midi_event.h"
+#include "core/pitch.h"
+#include "live/allocator.h"
 
 using namespace stepchoir;
 

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "config.h"
+#include "config/config.h"
 
 using namespace stepchoir;
 

@@ -13,11 +13,11 @@
 #include <thread>
 #include <vector>
 
-#include "board.h"
-#include "live.h"
-#include "midi_in.h"
-#include "rt_guard.h"
-#include "pitch.h"
+#include "board/board.h"
+#include "core/pitch.h"
+#include "live/midi_in.h"
+#include "live/rt_guard.h"
+#include "live/session.h"
 
 using namespace stepchoir;
 

@@ -4,8 +4,8 @@
 #include <cstring>
 #include <random>
 
-#include "board.h"
-#include "pitch.h"
+#include "board/board.h"
+#include "core/pitch.h"
 #include "stepchoir_protocol.h"
 #include "vectors.h"
 

@@ -10,10 +10,10 @@
 #include <string>
 #include <thread>
 
-#include "board.h"
+#include "board/board.h"
 #include "jack_rig.h"
-#include "live.h"
-#include "midi_in.h"
+#include "live/midi_in.h"
+#include "live/session.h"
 #include "vboard_process.h"
 
 using namespace stepchoir;

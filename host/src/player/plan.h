@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "allocator.h"
+#include "live/allocator.h"
 #include "song/song.h"
 
 namespace stepchoir {

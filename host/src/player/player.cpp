@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "midi_in.h"
-#include "pitch.h"
+#include "core/pitch.h"
+#include "live/midi_in.h"
 
 namespace stepchoir {
 

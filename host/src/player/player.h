@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "board.h"
-#include "live.h"
+#include "board/board.h"
+#include "live/session.h"
 #include "player/clock_sync.h"
 #include "player/plan.h"
 

@@ -10,7 +10,7 @@
 #include <map>
 #include <set>
 
-#include "pitch.h"
+#include "core/pitch.h"
 
 namespace stepchoir {
 

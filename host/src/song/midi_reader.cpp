@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cstring>
 
-#include "song.h"
+#include "song/song.h"
 
 namespace stepchoir {
 

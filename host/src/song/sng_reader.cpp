@@ -3,7 +3,7 @@
 #include <cmath>
 #include <optional>
 
-#include "song.h"
+#include "song/song.h"
 
 namespace stepchoir {
 

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <tuple>
 
-#include "song.h"
+#include "song/song.h"
 
 namespace stepchoir {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "allocator.h"
+#include "live/allocator.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {

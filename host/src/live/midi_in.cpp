@@ -1,5 +1,5 @@
 // midi_in.cpp: RtMidi input ports -> MidiQueue.
-#include "midi_in.h"
+#include "live/midi_in.h"
 
 #include <RtMidi.h>
 
@@ -8,7 +8,7 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "rt_guard.h"
+#include "live/rt_guard.h"
 
 namespace stepchoir {
 namespace {

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "midi_event.h"
+#include "core/midi_event.h"
 
 class RtMidiIn;
 

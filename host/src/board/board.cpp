@@ -1,5 +1,5 @@
 // board.cpp: reply decoding and the synchronous board session.
-#include "board.h"
+#include "board/board.h"
 
 #include <chrono>
 #include <cstring>

@@ -40,8 +40,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "midi_event.h"
-#include "pitch.h"
+#include "core/midi_event.h"
+#include "core/pitch.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {

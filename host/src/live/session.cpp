@@ -1,5 +1,5 @@
-// live.cpp: engine, writer and reader threads of the live path, and the Coalescer.
-#include "live.h"
+// session.cpp: the live session: engine, writer and reader threads, and the Coalescer.
+#include "live/session.h"
 
 #include <pthread.h>
 #include <sched.h>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "board.h"
+#include "board/board.h"
 
 namespace stepchoir {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "link.h"
+#include "board/link.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {

@@ -1,6 +1,6 @@
 // rt_guard.cpp: the real-time scope counter and, with STEPCHOIR_RT_GUARD, an operator new
 // that aborts inside a real-time scope.
-#include "rt_guard.h"
+#include "live/rt_guard.h"
 
 #include <unistd.h>
 

@@ -1,5 +1,5 @@
 // config.cpp: TOML configuration for `stepchoir live` (toml++), checked key by key.
-#include "config.h"
+#include "config/config.h"
 
 #include <toml++/toml.h>
 

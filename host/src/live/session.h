@@ -1,4 +1,4 @@
-// live.h: the live path after the MIDI callback: engine thread, per-board writer and reader
+// session.h: the live path after the MIDI callback: engine thread, per-board writer and reader
 // threads, and the pure pieces they run (Coalescer, LatencyHistogram).
 //
 // Threads and their budgets (docs/ARCHITECTURE.md, "Live path"):
@@ -30,9 +30,9 @@
 #include <thread>
 #include <vector>
 
-#include "allocator.h"
-#include "link.h"
-#include "midi_in.h"
+#include "board/link.h"
+#include "live/allocator.h"
+#include "live/midi_in.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {

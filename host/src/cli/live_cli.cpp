@@ -1,6 +1,6 @@
 // live_cli.cpp: `stepchoir live`: opens the boards (or starts the virtual board), the MIDI
 // input and a LiveSession; shows one status line; silences everything on the way out.
-#include "live_cli.h"
+#include "cli/live_cli.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -19,11 +19,11 @@
 #include <stdexcept>
 #include <thread>
 
-#include "board.h"
-#include "config.h"
-#include "live.h"
-#include "midi_in.h"
-#include "vboard_child.h"
+#include "board/board.h"
+#include "board/vboard_child.h"
+#include "config/config.h"
+#include "live/midi_in.h"
+#include "live/session.h"
 
 extern char **environ;
 

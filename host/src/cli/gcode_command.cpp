@@ -1,5 +1,5 @@
 // gcode_command.cpp: the `stepchoir gcode` subcommand: options -> song reader -> planner -> file.
-#include "song/gcode_command.h"
+#include "cli/gcode_command.h"
 
 #include <algorithm>
 #include <cstdio>

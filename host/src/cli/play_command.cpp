@@ -1,6 +1,6 @@
 // play_command.cpp: `stepchoir play` and `stepchoir render`: song -> plan -> Player on a board
 // (a real one, or the virtual board started here), with a progress line and a report.
-#include "player/play_command.h"
+#include "cli/play_command.h"
 
 #include <spawn.h>
 #include <sys/wait.h>
@@ -14,16 +14,16 @@
 #include <stdexcept>
 #include <thread>
 
-#include "board.h"
-#include "config.h"
-#include "link.h"
-#include "live.h"
-#include "midi_in.h"
-#include "pitch.h"
+#include "board/board.h"
+#include "board/link.h"
+#include "board/vboard_child.h"
+#include "config/config.h"
+#include "core/pitch.h"
+#include "live/midi_in.h"
+#include "live/session.h"
 #include "player/plan.h"
 #include "player/player.h"
 #include "song/song.h"
-#include "vboard_child.h"
 
 extern char **environ;
 

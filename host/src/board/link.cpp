@@ -1,5 +1,5 @@
 // link.cpp: termios and libserialport implementations of Link.
-#include "link.h"
+#include "board/link.h"
 
 #include <fcntl.h>
 #include <libserialport.h>

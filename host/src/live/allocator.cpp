@@ -1,5 +1,5 @@
 // allocator.cpp: the note-to-motor allocation engine (see allocator.h for the rules it follows).
-#include "allocator.h"
+#include "live/allocator.h"
 
 #include <cmath>
 #include <cstdlib>

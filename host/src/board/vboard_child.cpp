@@ -1,5 +1,5 @@
 // vboard_child.cpp: starts and stops the virtual board child process.
-#include "vboard_child.h"
+#include "board/vboard_child.h"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -8,13 +8,13 @@
 #include <cstdio>
 #include <thread>
 
-#include "board.h"
-#include "config.h"
-#include "link.h"
-#include "live_cli.h"
-#include "pitch.h"
-#include "player/play_command.h"
-#include "song/gcode_command.h"
+#include "board/board.h"
+#include "board/link.h"
+#include "cli/gcode_command.h"
+#include "cli/live_cli.h"
+#include "cli/play_command.h"
+#include "config/config.h"
+#include "core/pitch.h"
 
 namespace {
 
