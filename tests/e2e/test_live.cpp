@@ -79,7 +79,7 @@ double pacing_error_s(const tr::Trace &t) {
 }
 
 // Reads the process's stdout until a line contains text (true) or 20 s pass without one.
-bool wait_for_line(ChildProcess &process, const std::string &text) {
+bool wait_for_line(stepchoir::ChildProcess &process, const std::string &text) {
   for (std::string line; process.read_line(&line, 20000);)
     if (line.find(text) != std::string::npos) return true;
   return false;
@@ -103,7 +103,7 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
   const std::string trace_path = e2e::scratch("live.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
   // Not --quiet: with stdout not a terminal the status line comes once a second, on its own line.
-  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty()}, true);
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty()}, true);
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
   INFO("stepchoir live said: " << line);
@@ -275,7 +275,7 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
         std::vector<std::string>{"--board", "uno", "--link", link, "--trace", trace, "--quiet", "--no-measure"});
   };
   auto vb = board(trace_before);
-  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", link, "--quiet"},
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", link, "--quiet"},
                     true);
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
@@ -322,7 +322,7 @@ TEST_CASE("live: without --port it starts the virtual board, says so, and plays 
   Sender keys;
   const std::string trace_path = e2e::scratch("live-own-board.csv");
   std::remove(trace_path.c_str());
-  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--vboard", "mega",
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--vboard", "mega",
                      "--vboard-trace", trace_path, "--quiet"},
                     true);
   std::string said, line;
@@ -353,7 +353,7 @@ TEST_CASE("live: two boards form one pool of motors", "[e2e][live]") {
   const std::string trace_uno = e2e::scratch("live-pool-uno.csv"), trace_mega = e2e::scratch("live-pool-mega.csv");
   VboardProcess uno({"--board", "uno", "--trace", trace_uno, "--quiet", "--no-measure"});
   VboardProcess mega({"--board", "mega", "--trace", trace_mega, "--quiet", "--no-measure"});
-  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", uno.pty(), "--port",
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", uno.pty(), "--port",
                      mega.pty(), "--policy", "channel", "--quiet"},
                     true);
   std::string line;
@@ -387,7 +387,7 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   auto keys = std::make_unique<Sender>();
   const std::string trace_path = e2e::scratch("live-keyboard.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
-  ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty(), "--quiet"},
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty(), "--quiet"},
                     true);
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
@@ -437,14 +437,14 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
       << "[[boards.motors]]\ntranspose = 12\npulse_us = 5\n";
   }
   {  // `stepchoir ports` lists the keyboard among the JACK MIDI inputs
-    ChildProcess ports({STEPCHOIR_BIN, "ports", "--midi-api", "jack"}, true);
+    stepchoir::ChildProcess ports({STEPCHOIR_BIN, "ports", "--midi-api", "jack"}, true);
     const std::string listed = ports.read_rest(10000);
     INFO("stepchoir ports said:\n" << listed);
     CHECK(ports.wait() == 0);
     CHECK(listed.find("MIDI inputs (jack):") != std::string::npos);
     CHECK(listed.find(std::string(":") + Sender::kPort) != std::string::npos);
   }
-  ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
   std::string line;
   REQUIRE(live.read_line(&line, 30000));
   INFO("stepchoir live said: " << line);

@@ -15,9 +15,8 @@
 #include <random>
 #include <thread>
 
-#include "../host/smf_builder.h"
 #include "analysis.h"
-#include "child_process.h"
+#include "board/child_process.h"
 #include "core/midi_event.h"
 #include "core/pitch.h"
 #include "e2e_more.h"
@@ -25,6 +24,7 @@
 #include "jack_rig.h"
 #include "player/plan.h"
 #include "score.h"
+#include "smf_builder.h"
 #include "song/song.h"
 #include "trace.h"
 #include "vboard_process.h"

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "analysis.h"
-#include "child_process.h"
+#include "board/child_process.h"
 #include "player/plan.h"
 #include "score.h"
 #include "song/song.h"
@@ -66,7 +66,7 @@ int main(int argc, char **argv) {
     if (only >= 0 && static_cast<size_t>(only) != ci) continue;
     const std::string song = songs + "/" + c.song;
     const std::string trace_path = "/tmp/stepchoir-bench-play-" + std::to_string(getpid()) + ".csv";
-    ChildProcess play({bin_dir() + "/stepchoir", "play", song, "--vboard", c.board, "--clock-ppm",
+    stepchoir::ChildProcess play({bin_dir() + "/stepchoir", "play", song, "--vboard", c.board, "--clock-ppm",
                        std::to_string(c.clock_ppm), "--vboard-trace", trace_path, "--quiet"},
                       true);
     std::atomic<bool> done{false};

@@ -3,10 +3,10 @@
 #ifndef STEPCHOIR_HOST_VBOARD_CHILD_H
 #define STEPCHOIR_HOST_VBOARD_CHILD_H
 
-#include <sys/types.h>
-
 #include <string>
 #include <vector>
+
+#include "board/child_process.h"
 
 namespace stepchoir {
 
@@ -29,8 +29,8 @@ class VirtualBoard {
 
  private:
   static constexpr int kPriority = -5;  // nice value asked for the simulation
-  pid_t pid_ = -1;
   std::string path_;
+  ChildProcess child_;
 };
 
 }  // namespace stepchoir

@@ -14,6 +14,8 @@ thread_local int t_rt_depth = 0;
 
 RtScope::RtScope() noexcept { ++t_rt_depth; }
 RtScope::~RtScope() { --t_rt_depth; }
+RtExempt::RtExempt() noexcept : saved_(t_rt_depth) { t_rt_depth = 0; }
+RtExempt::~RtExempt() { t_rt_depth = saved_; }
 bool in_rt_scope() noexcept { return t_rt_depth > 0; }
 
 bool rt_guard_enabled() noexcept {

@@ -1,4 +1,5 @@
-// rt_guard.h: a debug-build check that real-time code (the MIDI callback) never allocates.
+// rt_guard.h: a debug-build check that real-time code (the MIDI callback, the live engine and
+// writer loops) never allocates.
 //
 // An RtScope marks the current thread as inside real-time code. In builds with
 // STEPCHOIR_RT_GUARD (CMake's Debug configuration) rt_guard.cpp replaces the global operator
@@ -16,6 +17,20 @@ class RtScope {
   ~RtScope();
   RtScope(const RtScope &) = delete;
   RtScope &operator=(const RtScope &) = delete;
+};
+
+// Suspends the thread's real-time scopes for a block. Called from: test fakes that stand in
+// for I/O the real-time path calls (a Link's write) and record what they get with
+// allocations; never from the product's code.
+class RtExempt {
+ public:
+  RtExempt() noexcept;
+  ~RtExempt();
+  RtExempt(const RtExempt &) = delete;
+  RtExempt &operator=(const RtExempt &) = delete;
+
+ private:
+  int saved_;
 };
 
 // True on a thread inside an RtScope. Called from: the allocation hook, tests.

@@ -7,12 +7,13 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <memory>
 #include <stdexcept>
 #include <string>
 
-#include "child_process.h"
+#include "board/child_process.h"
 #include "core/midi_event.h"
 
 // A private JACK server with the dummy driver, no realtime; JACK clients of this process and
@@ -26,18 +27,18 @@ class JackServer {
       : name_("stepchoir-e2e-" + std::to_string(getpid())) {
     setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
     setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
-    jackd_ = std::make_unique<ChildProcess>(
+    jackd_ = std::make_unique<stepchoir::ChildProcess>(
         std::vector<std::string>{"/usr/bin/jackd", "-n", name_, realtime ? "-R" : "-r", "-d", "dummy", "-p",
                                  std::to_string(period_frames)},
         false);
-    ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
+    stepchoir::ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
     if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");
   }
   ~JackServer() { jackd_->signal_and_wait(SIGTERM); }
 
  private:
   std::string name_;
-  std::unique_ptr<ChildProcess> jackd_;
+  std::unique_ptr<stepchoir::ChildProcess> jackd_;
 };
 
 // The test's MIDI keyboard: a virtual JACK MIDI output that `stepchoir live` connects to.
