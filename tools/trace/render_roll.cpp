@@ -1,219 +1,23 @@
-// render.cpp: WAV synthesis (damped resonator per motor) and the PNG piano roll (see render.h).
+// render_roll.cpp: the piano roll (notes, reversals, grid, labels) and its PNG writer (see render.h).
 #include "render.h"
 
 #include <png.h>
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <memory>
 #include <stdexcept>
 #include <utility>
 
+#include "render_canvas.h"
+
 namespace sc {
 namespace trace {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kInt16FullScale = 32767.0;
-constexpr double kDbPerAmplitudeDecade = 20.0;
-constexpr double kResonatorSpread = 1.25;      // each motor rings this much higher than the last
-constexpr double kMaxResonatorFraction = 0.4;  // of the sample rate: stay well below Nyquist
-constexpr double kMaxAudioSeconds = 3600;     // longer traces would need gigabytes of samples
-constexpr uint16_t kWavFormatPcm = 1;
-constexpr uint16_t kWavChannels = 1;
-constexpr uint16_t kWavBitsPerSample = 16;
-constexpr uint32_t kWavBytesPerSample = kWavBitsPerSample / 8;
-constexpr uint32_t kWavFmtChunkBytes = 16;
-
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------
-// Audio
-// ---------------------------------------------------------------------------------------------
-
-size_t audio_length_samples(const Trace& trace, int sample_rate_hz) {
-  if (sample_rate_hz <= 0 || !(trace.f_cpu_hz > 0)) return 0;
-  return size_t(std::ceil(trace.real_seconds(trace.end_cycle) * double(sample_rate_hz)));
-}
-
-double resonator_hz(const AudioOptions& options, int motor) {
-  double hz = options.resonator_base_hz * std::pow(kResonatorSpread, double(motor));
-  return std::min(hz, kMaxResonatorFraction * double(options.sample_rate_hz));
-}
-
-std::vector<int16_t> render_audio(const Trace& trace, const AudioOptions& options) {
-  if (options.sample_rate_hz <= 0) throw std::invalid_argument("render_audio: sample rate must be > 0");
-  if (!(options.resonator_decay_s > 0)) throw std::invalid_argument("render_audio: decay must be > 0");
-  const size_t n = audio_length_samples(trace, options.sample_rate_hz);
-  const double rate_hz = double(options.sample_rate_hz);
-  if (double(n) > kMaxAudioSeconds * rate_hz)
-    throw std::runtime_error("trace lasts " + std::to_string(trace.real_seconds(trace.end_cycle)) +
-                             " s; audio is limited to " + std::to_string(int(kMaxAudioSeconds)) + " s");
-  std::vector<float> mix(n, 0.0f);
-  for (int m = 0; m < int(trace.motor.size()); ++m) {
-    const std::vector<Step>& steps = trace.motor[size_t(m)].steps;
-    if (steps.empty()) continue;
-    // two-pole resonator: impulse response r^k sin((k+1) w) / sin w, scaled to peak ~1
-    const double w = 2.0 * kPi * resonator_hz(options, m) / rate_hz;
-    const double r = std::exp(-1.0 / (options.resonator_decay_s * rate_hz));
-    const double a1 = 2.0 * r * std::cos(w), a2 = -r * r, gain = std::sin(w);
-    double y1 = 0, y2 = 0;
-    double carry = 0;  // the part of the last impulse that falls on the next sample
-    size_t next_step = 0;
-    for (size_t k = 0; k < n; ++k) {
-      double x = carry;
-      carry = 0;
-      // split each impulse over two samples: sub-sample timing keeps the pitch clean
-      for (; next_step < steps.size(); ++next_step) {
-        double at_samples = trace.real_seconds(steps[next_step].rise_cycle) * rate_hz;
-        if (at_samples >= double(k + 1)) break;
-        double frac = std::max(0.0, at_samples - double(k));
-        x += 1.0 - frac;
-        carry += frac;
-      }
-      double y = gain * x + a1 * y1 + a2 * y2;
-      y2 = y1;
-      y1 = y;
-      mix[k] += float(y);
-    }
-  }
-  double peak = 0;
-  for (float v : mix) peak = std::max(peak, double(std::fabs(v)));
-  std::vector<int16_t> out(n, 0);
-  if (peak <= 0) return out;
-  const double scale = kInt16FullScale * std::pow(10.0, options.peak_dbfs / kDbPerAmplitudeDecade) / peak;
-  for (size_t k = 0; k < n; ++k) {
-    double v = std::round(double(mix[k]) * scale);
-    out[k] = int16_t(std::max(-kInt16FullScale, std::min(kInt16FullScale, v)));
-  }
-  return out;
-}
-
-namespace {
-
-// Appends a little-endian 16-bit value.
-void put_u16(std::string& out, uint16_t v) {
-  out += char(v & 0xff);
-  out += char(v >> 8);
-}
-
-// Appends a little-endian 32-bit value.
-void put_u32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out += char((v >> (8 * i)) & 0xff);
-}
-
-}  // namespace
-
-void write_wav(const std::string& path, const std::vector<int16_t>& samples, int sample_rate_hz) {
-  if (sample_rate_hz <= 0) throw std::invalid_argument("write_wav: sample rate must be > 0");
-  const uint64_t data_bytes = uint64_t(samples.size()) * kWavBytesPerSample;
-  if (data_bytes + kWavHeaderBytes > 0xffffffffull) throw std::runtime_error(path + ": too long for WAV");
-  std::string out;
-  out.reserve(kWavHeaderBytes + size_t(data_bytes));
-  out += "RIFF";
-  put_u32(out, uint32_t(kWavHeaderBytes - 8 + data_bytes));
-  out += "WAVE";
-  out += "fmt ";
-  put_u32(out, kWavFmtChunkBytes);
-  put_u16(out, kWavFormatPcm);
-  put_u16(out, kWavChannels);
-  put_u32(out, uint32_t(sample_rate_hz));
-  put_u32(out, uint32_t(sample_rate_hz) * kWavChannels * kWavBytesPerSample);  // byte rate
-  put_u16(out, uint16_t(kWavChannels * kWavBytesPerSample));                  // block align
-  put_u16(out, kWavBitsPerSample);
-  out += "data";
-  put_u32(out, uint32_t(data_bytes));
-  for (int16_t s : samples) put_u16(out, uint16_t(s));
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw std::runtime_error(path + ": cannot create: " + std::strerror(errno));
-  file.write(out.data(), std::streamsize(out.size()));
-  file.close();
-  if (!file) throw std::runtime_error(path + ": write failed");
-}
-
-// ---------------------------------------------------------------------------------------------
-// Piano roll
-// ---------------------------------------------------------------------------------------------
-
-namespace {
-
-constexpr int kGlyphWidthPx = 5;
-constexpr int kGlyphHeightPx = 7;
-constexpr int kGlyphAdvancePx = kGlyphWidthPx + 1;
-
-// A 5x7 bitmap glyph: 7 rows of 5 characters, '#' = ink.
-struct Glyph {
-  char ch;
-  const char* rows;  // 35 characters, row by row
-};
-
-// Upper-case font; lower case is drawn as upper case.
-const Glyph kFont[] = {
-    {' ', "..................................."},
-    {'0', ".###.#...##..###.#.###..##...#.###."},
-    {'1', "..#...##....#....#....#....#...###."},
-    {'2', ".###.#...#....#...#...#...#...#####"},
-    {'3', "####.....#....#.###.....#....#####."},
-    {'4', "...#...##..#.#.#..#.#####...#....#."},
-    {'5', "######....####.....#....##...#.###."},
-    {'6', "..##..#...#....####.#...##...#.###."},
-    {'7', "#####....#...#...#...#....#....#..."},
-    {'8', ".###.#...##...#.###.#...##...#.###."},
-    {'9', ".###.#...##...#.####....#...#..##.."},
-    {'A', ".###.#...##...#######...##...##...#"},
-    {'B', "####.#...##...#####.#...##...#####."},
-    {'C', ".###.#...##....#....#....#...#.###."},
-    {'D', "###..#..#.#...##...##...##..#.###.."},
-    {'E', "######....#....####.#....#....#####"},
-    {'F', "######....#....####.#....#....#...."},
-    {'G', ".###.#...##....#.####...##...#.####"},
-    {'H', "#...##...##...#######...##...##...#"},
-    {'I', ".###...#....#....#....#....#...###."},
-    {'J', "..###...#....#....#....#.#..#..##.."},
-    {'K', "#...##..#.#.#..##...#.#..#..#.#...#"},
-    {'L', "#....#....#....#....#....#....#####"},
-    {'M', "#...###.###.#.##.#.##...##...##...#"},
-    {'N', "#...##...###..##.#.##..###...##...#"},
-    {'O', ".###.#...##...##...##...##...#.###."},
-    {'P', "####.#...##...#####.#....#....#...."},
-    {'Q', ".###.#...##...##...##.#.##..#..##.#"},
-    {'R', "####.#...##...#####.#.#..#..#.#...#"},
-    {'S', ".#####....#.....###.....#....#####."},
-    {'T', "#####..#....#....#....#....#....#.."},
-    {'U', "#...##...##...##...##...##...#.###."},
-    {'V', "#...##...##...##...##...#.#.#...#.."},
-    {'W', "#...##...##...##.#.##.#.##.#.#.#.#."},
-    {'X', "#...##...#.#.#...#...#.#.#...##...#"},
-    {'Y', "#...##...#.#.#...#....#....#....#.."},
-    {'Z', "#####....#...#...#...#...#....#####"},
-    {'.', "..........................##...##.."},
-    {',', ".....................##....#...#..."},
-    {':', "......##...##........##...##......."},
-    {'-', "................###................"},
-    {'+', ".......#....#..#####..#....#......."},
-    {'=', "..........#####.....#####.........."},
-    {'#', ".#.#..#.#.#####.#.#.#####.#.#..#.#."},
-    {'/', ".........#...#...#...#...#........."},
-    {'(', "...#...#...#....#....#.....#.....#."},
-    {')', ".#.....#.....#....#....#...#...#..."},
-    {'%', "##...##..#...#...#...#...#..##...##"},
-    {'_', "..............................#####"},
-    {'?', ".###.#...#....#...#...#.........#.."},
-};
-
-// The glyph for a character ('?' for ones the font lacks).
-const char* glyph_rows(char c) {
-  c = char(std::toupper(static_cast<unsigned char>(c)));
-  for (const Glyph& g : kFont)
-    if (g.ch == c) return g.rows;
-  return glyph_rows('?');
-}
 
 constexpr Rgb kPageRgb{255, 255, 255};
 constexpr Rgb kBlackKeyRowRgb{241, 242, 246};
@@ -264,69 +68,6 @@ constexpr int kLegendGapPx = 14;
 constexpr double kOutlineShade = 0.6;    // bar outline = motor colour times this
 // Time grid steps to choose from, in seconds.
 constexpr std::array<double, 12> kTimeStepsS{{1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 1200, 3600}};
-
-// A drawing surface over an Image, clipping everything to the picture.
-class Canvas {
- public:
-  // Makes a canvas of the given size filled with a colour.
-  Canvas(int width_px, int height_px, Rgb fill) {
-    image_.width_px = width_px;
-    image_.height_px = height_px;
-    image_.rgb.resize(size_t(width_px) * size_t(height_px) * 3);
-    for (size_t i = 0; i < image_.rgb.size(); i += 3) {
-      image_.rgb[i] = fill.r;
-      image_.rgb[i + 1] = fill.g;
-      image_.rgb[i + 2] = fill.b;
-    }
-  }
-  // Sets one pixel (ignored outside the picture).
-  void pixel(int x, int y, Rgb c) {
-    if (x < 0 || y < 0 || x >= image_.width_px || y >= image_.height_px) return;
-    uint8_t* p = &image_.rgb[(size_t(y) * size_t(image_.width_px) + size_t(x)) * 3];
-    p[0] = c.r;
-    p[1] = c.g;
-    p[2] = c.b;
-  }
-  // Fills the rectangle [x0, x1) x [y0, y1).
-  void fill(int x0, int y0, int x1, int y1, Rgb c) {
-    x0 = std::max(x0, 0);
-    y0 = std::max(y0, 0);
-    x1 = std::min(x1, image_.width_px);
-    y1 = std::min(y1, image_.height_px);
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) pixel(x, y, c);
-  }
-  // Draws a horizontal line from x0 to x1 (exclusive) at row y.
-  void hline(int x0, int x1, int y, Rgb c) { fill(x0, y, x1, y + 1, c); }
-  // Draws a vertical line from y0 to y1 (exclusive) at column x.
-  void vline(int x, int y0, int y1, Rgb c) { fill(x, y0, x + 1, y1, c); }
-  // Draws the outline of the rectangle [x0, x1) x [y0, y1).
-  void frame(int x0, int y0, int x1, int y1, Rgb c) {
-    hline(x0, x1, y0, c);
-    hline(x0, x1, y1 - 1, c);
-    vline(x0, y0, y1, c);
-    vline(x1 - 1, y0, y1, c);
-  }
-  // Draws text with its top-left corner at (x, y).
-  void text(int x, int y, const std::string& s, Rgb c) {
-    for (char ch : s) {
-      const char* rows = glyph_rows(ch);
-      for (int gy = 0; gy < kGlyphHeightPx; ++gy)
-        for (int gx = 0; gx < kGlyphWidthPx; ++gx)
-          if (rows[gy * kGlyphWidthPx + gx] == '#') pixel(x + gx, y + gy, c);
-      x += kGlyphAdvancePx;
-    }
-  }
-  // Width of a text in pixels.
-  static int text_width_px(const std::string& s) {
-    return s.empty() ? 0 : int(s.size()) * kGlyphAdvancePx - 1;
-  }
-  // Hands over the finished picture.
-  Image take() { return std::move(image_); }
-
- private:
-  Image image_;
-};
 
 // Scales a colour towards black.
 Rgb shade(Rgb c, double factor) {
