@@ -52,8 +52,8 @@ const uint8_t kCmdNone = 0;
 const uint8_t kCmdLive = 1;   // play cmd_period_q8 from now on
 const uint8_t kCmdTimed = 2;  // ... exactly at cmd_at
 
-// A timed strike on a sounding motor replaces an old edge due less than this before its time
-// (ticks): both would sound as one doubled step (a note change on the old note's own grid, as
+// A timed strike on a sounding motor replaces an old edge due this much or less before its
+// time (ticks): both would sound as one doubled step (a note change on the old note's own grid, as
 // in a legato melody, lands within a tick of an old edge).
 const int32_t kStrikeSnapTicks = 512;
 
@@ -172,8 +172,10 @@ bool start_up(const Motor &m) {
   volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
   const uint8_t mask = up ? m.sw_up_mask : m.sw_down_mask;
   // A pressed switch ahead turns it round, unless it is one input for both ends (then it says
-  // nothing about which end the carriage is at: the position decides).
-  if (sw && m.sw_up_pin != m.sw_down_pin && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
+  // nothing about which end the carriage is at: the position decides). Two switches may sit
+  // on one port (the Mega's min and max): the same register with another bit is another input.
+  const bool one_input = m.sw_up_pin == m.sw_down_pin && m.sw_up_mask == m.sw_down_mask;
+  if (sw && !one_input && drv::switch_pressed((*sw & mask) != 0, m.flags & kActiveHigh)) up = !up;
   return up;
 }
 
@@ -234,8 +236,9 @@ bool apply(Motor &m, uint32_t period, bool want_timed, uint32_t at) {
       m.deadline_frac = (uint8_t)frac;
       m.period_q8 = period;
     }
-  } else if ((int32_t)(m.deadline - at) >= -kStrikeSnapTicks) {
-    // The next edge not before the time, or just before it: strike on it.
+  } else if (period != sc::kPeriodSilent && (int32_t)(m.deadline - at) >= -kStrikeSnapTicks) {
+    // The next edge not before the time, or just before it: strike on it. (A timed silence
+    // lets an edge due before its time sound: it waits as a pending change, below.)
     m.deadline = at;
     m.deadline_frac = 0;
     m.period_q8 = period;
