@@ -32,7 +32,7 @@ void check_budget(const std::string &board, double bytes_per_second, double seco
   Board b(open_link(vb.pty()));
   const Caps caps = b.hello();
   b.send(e2e::watchdog_payload(0));  // unpaced, a pause of the host must not silence the board
-  // High notes, about 7,000 steps a second in all on five motors (5,500 on four).
+  // High notes, about 5,800 steps a second in all on five motors (5,000 on four).
   const int notes[] = {88, 90, 86, 83, 81};
   std::vector<sc::PeriodEntry> chord;
   std::vector<std::vector<uint8_t>> round;
@@ -197,14 +197,10 @@ std::vector<double> onset_latencies(const std::string &board, int notes, uint8_t
 // frame's bytes as they come), checks the entry and, the motor being silent, sets DIR and arms
 // the motor's channel for its first edge kStartLeadTicks (18 us) ahead (sched::command); the
 // channel's stub raises it. The first note of a run wakes the drivers (6 us more); it is
-// reported apart. Bounds are regression guards, measured in simavr cycles: warm notes p50 93-95
-// us, p99 112-124 us over 100 notes a board (2026-12-01; 74-78 us with the single-compare step
-// ISR, whose main loop raised the first edge itself), at most 131 us for the first; a MIDI
-// cable takes 960 us for one note-on. Since 2026-12-02 (a motor's next edge takes a command
-// when it is near; the receive ISR split, about 20 cycles a byte more) p50 96 us, p99 (of 99
-// notes: their largest) 105-154 us in 10 runs a board: its first edge's arming held up past its
-// 18 us lead by the ISRs nested meanwhile, once or twice, each retry 18 us further ahead. The p99
-// guard is 170 us (it was 150, and one fresh-clone CI run measured 154).
+// reported apart. The p99's tail is a first edge whose arming is held up past its 18 us lead by
+// the ISRs nested meanwhile, once or twice, each retry 18 us further ahead. The test holds every
+// note within 0.3 ms (a MIDI cable takes 960 us for one note-on); its p50 and p99 guards are
+// regression guards above the measured spread (bench/results/onset-latency.md).
 TEST_CASE("link: a note starts within 0.3 ms of its frame's last byte (uno and mega)") {
   for (const std::string board : {"uno", "mega"}) {
     const char *notes_env = std::getenv("STEPCHOIR_ONSET_NOTES");  // more notes, by hand

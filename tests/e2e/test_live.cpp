@@ -97,7 +97,7 @@ void sleep_until_s(double t_s) {
 
 }  // namespace
 
-TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live", "[e2e][live]") {
+TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live", "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string trace_path = e2e::scratch("live.csv");
@@ -265,7 +265,7 @@ TEST_CASE("live: a JACK keyboard plays the virtual board through stepchoir live"
 }
 
 TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and restores the held note",
-          "[e2e][live]") {
+          "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string link = e2e::scratch("live-unplug.pty");
@@ -317,7 +317,7 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   CHECK(std::fabs((after[1].end_s - after[1].start_s) - (off64_s - on64_s)) < tolerance_s);
 }
 
-TEST_CASE("live: without --port it starts the virtual board, says so, and plays on it", "[e2e][live]") {
+TEST_CASE("live: without --port it starts the virtual board, says so, and plays on it", "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string trace_path = e2e::scratch("live-own-board.csv");
@@ -347,7 +347,7 @@ TEST_CASE("live: without --port it starts the virtual board, says so, and plays 
   CHECK(std::fabs((played[0].end_s - played[0].start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_error_s(trace));
 }
 
-TEST_CASE("live: two boards form one pool of motors", "[e2e][live]") {
+TEST_CASE("live: two boards form one pool of motors", "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string trace_uno = e2e::scratch("live-pool-uno.csv"), trace_mega = e2e::scratch("live-pool-mega.csv");
@@ -382,7 +382,7 @@ TEST_CASE("live: two boards form one pool of motors", "[e2e][live]") {
   CHECK(std::fabs(on_mega[0].pitch - 76) < kPitchToleranceSemitones);
 }
 
-TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it plays again", "[e2e][live]") {
+TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it plays again", "[e2e][live][pacing]") {
   JackServer jack(1024);
   auto keys = std::make_unique<Sender>();
   const std::string trace_path = e2e::scratch("live-keyboard.csv");
@@ -424,7 +424,7 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   CHECK(std::fabs((played[1].end_s - played[1].start_s) - (off_s - on_s)) < tolerance_s);
 }
 
-TEST_CASE("live: a configuration file names the board, configures its motor and transposes it", "[e2e][live]") {
+TEST_CASE("live: a configuration file names the board, configures its motor and transposes it", "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string trace_path = e2e::scratch("live-config.csv"), config_path = e2e::scratch("live-config.toml");

@@ -143,12 +143,12 @@ Status play_through_noise(const std::string &name, const std::vector<std::string
 
 }  // namespace
 
-TEST_CASE("noise: uno with 1 % of host bytes corrupted plays no wrong note and restores lost chords") {
+TEST_CASE("noise: uno with 1 % of host bytes corrupted plays no wrong note and restores lost chords", "[pacing]") {
   const Status st = play_through_noise("noise-corrupt-uno", {"--line-corrupt", "0.01", "--seed", "5"});
   CHECK(st.head.frames_bad > 0);  // the damage is counted
 }
 
-TEST_CASE("noise: uno with 1 % of host bytes dropped and 1 % duplicated plays no wrong note") {
+TEST_CASE("noise: uno with 1 % of host bytes dropped and 1 % duplicated plays no wrong note", "[pacing]") {
   const Status st =
       play_through_noise("noise-drop-dup-uno", {"--line-drop", "0.01", "--line-duplicate", "0.01", "--seed", "6"});
   CHECK(st.head.frames_bad > 0);

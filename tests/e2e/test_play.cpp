@@ -146,7 +146,7 @@ sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace &t, co
 
 }  // namespace
 
-TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with the host stalled", "[play]") {
+TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with the host stalled", "[play][pacing]") {
   const std::string song = write_test_song("play-multitrack.mid");
   const std::string trace_path = scratch("play-multitrack.csv");
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--vboard", "uno", "--vboard-trace", trace_path, "--quiet"}, true);
@@ -208,11 +208,11 @@ void check_auto_tune(const char *ppm) {
   CHECK(std::fabs(c.tempo_ppm) < 1000.0);
 }
 
-TEST_CASE("play: a crystal 0.5 % fast still plays in tune in real time (auto-tune)", "[play]") { check_auto_tune("5000"); }
+TEST_CASE("play: a crystal 0.5 % fast still plays in tune in real time (auto-tune)", "[play][pacing]") { check_auto_tune("5000"); }
 
-TEST_CASE("play: a crystal 0.5 % slow still plays in tune in real time (auto-tune)", "[play]") { check_auto_tune("-5000"); }
+TEST_CASE("play: a crystal 0.5 % slow still plays in tune in real time (auto-tune)", "[play][pacing]") { check_auto_tune("-5000"); }
 
-TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the check can fail)", "[play]") {
+TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the check can fail)", "[play][pacing]") {
   const std::string song = write_test_song("play-notune.mid");
   const std::string trace_path = scratch("play-notune.csv");
   int status = -1;
@@ -228,7 +228,7 @@ TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the che
   CHECK(c.max_spread_cents < 0.05);
 }
 
-TEST_CASE("render: a sample song through the firmware as fast as it runs, to a WAV and a picture", "[play]") {
+TEST_CASE("render: a sample song through the firmware as fast as it runs, to a WAV and a picture", "[play][pacing]") {
   const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/furelise.sng";
   const std::string wav = scratch("render.wav"), png = scratch("render.png"), trace_path = scratch("render.csv");
   std::remove(wav.c_str());
@@ -254,7 +254,7 @@ TEST_CASE("render: a sample song through the firmware as fast as it runs, to a W
 }
 
 TEST_CASE("play: the board reset mid-song (virtual board restarted): the host reconnects and carries on",
-          "[play][safety]") {
+          "[play][safety][pacing]") {
   const std::string song = write_test_song("play-reset.mid");
   const std::string link = scratch("play-reset.pty");
   const std::string trace2 = scratch("play-reset-after.csv");
@@ -370,8 +370,7 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   // step ISRs can make on time. One motor changes note every 2.5 ms, 160 times. The main loop
   // takes each entry from the queue kTakeTicks (3 ms) before its time and hands it to the
   // motor's channel, so almost none comes late (the board answers those `late`); each change
-  // sounds at its pitch until the next, and strikes within the overload's lateness (with the
-  // single-compare step ISR, which took the entries itself: p99 394 us in 8 runs).
+  // sounds at its pitch until the next, and strikes within the overload's lateness.
   // The board runs at a quarter of real time, paced by the wall clock from one clock sample as
   // a player sends: the host's lead never runs short. (At MIDI 105-108 with this traffic the
   // main loop gets too little to keep up with the line: frames are lost; see RELIABILITY.md.)
@@ -420,8 +419,7 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   REQUIRE(st);
   INFO("the board's last error: " << sc::error_name(st->head.last_error));
   // None refused; at most two of the 164 entries made late (answered `late`: while the ISR is
-  // this far behind, an entry may find edges due all the time). Measured: none in 4 runs here;
-  // at MIDI 105-108, 0-2 (20 of 160 when the main loop handed entries over).
+  // this far behind, an entry may find edges due all the time).
   CHECK((st->head.last_error == sc::kErrNone || st->head.last_error == sc::kErrLate));
   for (const auto &e : b.errors()) CHECK(e.code == sc::kErrLate);
   CHECK(b.errors().size() <= 2);
@@ -458,7 +456,7 @@ TEST_CASE("at: entries keep their time while four motors sound near the top of t
   CHECK(std::fabs(strike_us[strike_us.size() * 99 / 100]) < 450.0);
 }
 
-TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam]") {
+TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {
   JackServer jack(1024);
   Sender keys;
   const std::string song = write_test_song("jam.mid");
@@ -523,7 +521,7 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
 }
 
 TEST_CASE("play: a black-MIDI file (every key at once, 3,000 notes a second) ends silent in bounded memory",
-          "[play][safety]") {
+          "[play][safety][pacing]") {
   // 8 s: all 128 keys at once for the first second, then 30 new notes every 10 ms, each 10-50
   // ms long, on 16 channels; note-ons and offs interleaved as such files have them.
   const uint16_t ppq = 480;  // 120 bpm: a tick is 1.04 ms
@@ -592,7 +590,7 @@ TEST_CASE("play: a black-MIDI file (every key at once, 3,000 notes a second) end
   CHECK(t.real_seconds(t.end_cycle) > song_end_s);  // the run went on past it
 }
 
-TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors right", "[play]") {
+TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors right", "[play][pacing]") {
   const std::string song = write_test_song("play-loop.mid");  // 3.6 s
   const std::string trace_path = scratch("play-loop.csv");
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--loop", "--vboard", "uno", "--vboard-trace", trace_path, "--quiet"},
@@ -634,7 +632,7 @@ TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors r
   CHECK(t.end_cycle - all.back() > static_cast<uint64_t>(0.002 * t.f_cpu_hz));
 }
 
-TEST_CASE("render: the three sample songs play through the firmware, every note on time", "[play]") {
+TEST_CASE("render: the three sample songs play through the firmware, every note on time", "[play][pacing]") {
   // Canon (2:18) twice as fast, the others as written. (At four times as fast, a short note
   // two motors played in unison measured up to 0.069 cent off from its 42 edges: one edge's
   // lateness, fitted.)

@@ -427,7 +427,7 @@ TEST_CASE("safety: uno board clock: `at` notes start on their tick") {
   REQUIRE(!t.motor[0].steps.empty());
   REQUIRE(!t.motor[1].steps.empty());
   // each note's offset from its grid, not its first edge alone: one edge may wait behind an
-  // interrupt (a fresh-clone CI run, 2026-12-02: 21 cycles)
+  // interrupt (20 cycles or so)
   const int64_t offset1 = e2e::grid_cycle_offset(t.motor[0], at1, period_q8);
   const int64_t offset2 = e2e::grid_cycle_offset(t.motor[1], at2, period_q8);
   std::printf("uno clock: trace cycles - board ticks = %lld and %lld for two `at` notes\n", (long long)offset1,

@@ -35,32 +35,42 @@ inline std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::
   return stepchoir::at_payload(at_ticks, entries);
 }
 
-// Sends frames back to back until the board process exits or `stop` is set, draining replies:
-// heartbeats and status requests, the traffic a host keeps up while music plays. The last
-// status reply seen goes to *last_status.
+// Sends frames back to back until the board process exits, `stop` is set, or (until_ticks not
+// 0) a clock reply shows board time at until_ticks or later, draining replies: heartbeats and
+// status requests, the traffic a host keeps up while music plays, and a clock request a round
+// when until_ticks is set. The last status reply seen goes to *last_status.
 inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atomic<bool> *stop = nullptr,
                                std::optional<stepchoir::Status> *last_status = nullptr,
-                               int pause_us = 0) {
+                               int pause_us = 0, uint32_t until_ticks = 0) {
   const auto hb = stepchoir::frame({sc::kMsgHeartbeat});
   const auto st = stepchoir::frame({sc::kMsgStatusReq});
+  const auto clock = stepchoir::frame({sc::kMsgClockReq, 0x5C});
   std::vector<uint8_t> burst;  // paced: one heartbeat and one status request a round
   const int heartbeats = pause_us ? 1 : 64;
   for (int i = 0; i < heartbeats; ++i) burst.insert(burst.end(), hb.begin(), hb.end());
   burst.insert(burst.end(), st.begin(), st.end());
+  if (until_ticks) burst.insert(burst.end(), clock.begin(), clock.end());
+  const size_t per_burst = size_t(heartbeats + 1 + (until_ticks ? 1 : 0));
   size_t frames = 0;
   uint8_t sink[4096];
   sc::FrameDecoder dec;
+  bool past = false;
   for (bool more = true; more;) {
-    more = vb.running() && !(stop && *stop);
+    more = vb.running() && !(stop && *stop) && !past;
     if (more && !b.link().write(burst.data(), burst.size())) break;
-    frames += more ? size_t(heartbeats + 1) : 0;
+    frames += more ? per_burst : 0;
     if (more && pause_us) std::this_thread::sleep_for(std::chrono::microseconds(pause_us));
     long n;
     while ((n = b.link().read(sink, sizeof sink, more ? 0 : 50)) > 0) {
       for (long i = 0; i < n; ++i) {
-        if (dec.push(sink[i]) != sc::kFrameOk || !last_status || dec.payload()[0] != sc::kMsgStatus) continue;
+        if (dec.push(sink[i]) != sc::kFrameOk) continue;
+        const uint8_t *p = dec.payload();
+        if (until_ticks && p[0] == sc::kMsgClock && dec.payload_len() >= 6 &&
+            static_cast<int32_t>(sc::get_u32(&p[2]) - until_ticks) >= 0)
+          past = true;
+        if (!last_status || p[0] != sc::kMsgStatus) continue;
         try {
-          *last_status = stepchoir::parse_status(dec.payload(), dec.payload_len());
+          *last_status = stepchoir::parse_status(p, dec.payload_len());
         } catch (const std::exception &) {
         }
       }
