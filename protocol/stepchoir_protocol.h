@@ -44,7 +44,7 @@ static const uint16_t kWatchdogMinMs = 20;  // shorter (but not 0) is refused: k
 
 // Link budget: a host keeps what it sends under kLinkBudgetBytesPerSecond, in bursts of at
 // most kLinkBurstBytes (a token bucket). A board then decodes every frame even with every
-// motor playing fast (tests/e2e/test_link.cpp: five motors at 7,000 steps a second, every
+// motor playing fast (tests/e2e/test_link.cpp: five motors at 5,800 steps a second, every
 // motor's period again and heartbeats, no frame lost at 13,600 bytes a second in 80-byte
 // bursts). Bursts longer than the board's 128-byte receive ring, or frames back to back at the
 // full line rate, are lost in part (bench/results): the step ISR leaves the main loop too

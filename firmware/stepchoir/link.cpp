@@ -58,9 +58,7 @@ const uint8_t kTxMask = cfg::kTxRingBytes - 1;
 //     byte come since enters at once, on a real chip and on the virtual board, which makes the
 //     interrupt pending when RXCIE0 is written on with RXC0 set: vboard_uart_rxcie.)
 // About 75 cycles for a lone byte, entry included; 31 for each further one it finds waiting.
-// Before (to 2026-12-02) it kept interrupts off for its first 28 cycles in one stretch (55 a
-// byte in all), and those held most of the motors' late edges up at full line speed: figures
-// before and since in docs/ARCHITECTURE.md ("Measured").
+// Why it is split so: docs/decisions/011-split-receive-isr.md.
 ISR(SC_UART_RX_VECT, ISR_NAKED) {
   __asm__ __volatile__(
       "push r24\n\t"
