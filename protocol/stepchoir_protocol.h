@@ -44,11 +44,10 @@ static const uint16_t kWatchdogMinMs = 20;  // shorter (but not 0) is refused: k
 
 // Link budget: a host keeps what it sends under kLinkBudgetBytesPerSecond, in bursts of at
 // most kLinkBurstBytes (a token bucket). A board then decodes every frame even with every
-// motor playing fast (tests/e2e/test_link.cpp: five motors at 5,800 steps a second, every
-// motor's period again and heartbeats, no frame lost at 13,600 bytes a second in 80-byte
-// bursts). Bursts longer than the board's 128-byte receive ring, or frames back to back at the
-// full line rate, are lost in part (bench/results): the step ISR leaves the main loop too
-// little time to keep up. 10,000 bytes a second is three times what a MIDI cable carries:
+// motor playing fast (tests/e2e/test_link.cpp: five motors at about 5,800 steps a second,
+// every motor's period again and heartbeats). Bursts longer than the board's 128-byte receive
+// ring, or frames back to back at the full line rate, are lost in part (bench/results): the
+// motors' step ISRs leave the main loop too little time to keep up. 10,000 bytes a second is three times what a MIDI cable carries:
 // 1,250 one-motor frames a second. The host's writer coalesces to it (only the latest period
 // per motor is sent; a silence is never dropped).
 static const uint32_t kLinkBudgetBytesPerSecond = 10000;

@@ -204,9 +204,9 @@ template <uint8_t M> __attribute__((always_inline)) inline void serve(bool edge)
 // the channel's ISR (a visit) within kTriggerLeadTicks, or at its next match when that one
 // would only be counted, unless the motor's next edge is due within kVisitMarginTicks: then
 // that edge's handler takes the command (a visit that close, held up by the handlers nested in
-// it, came to arming after the edge: edges 11-120 us late before a timed chord change at full
-// line speed). A timed change due before that edge (or just after it: a strike would replace
-// it) is brought at once all the same. Interrupts off for about 20 cycles at a time.
+// it, can come to arming after the edge: docs/decisions/012-visit-margin.md). A timed change due
+// before that edge (or just after it: a strike would replace it) is brought at once all the
+// same. Interrupts off for about 20 cycles at a time.
 template <uint8_t M> void poke() {
   Motor &m = g_motor[M];
   uint32_t next;

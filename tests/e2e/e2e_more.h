@@ -4,8 +4,6 @@
 #define STEPCHOIR_TESTS_E2E_MORE_H
 
 #include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,7 +24,6 @@
 #include "e2e_util.h"
 #include "trace.h"
 
-extern char **environ;
 
 namespace e2e {
 

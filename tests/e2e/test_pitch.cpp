@@ -52,6 +52,11 @@ tr::Trace play_chords(const std::string &board_name, std::vector<std::vector<uin
     periods->push_back(ps);
     b.send(e2e::at_payload(t0 + uint32_t(c * kChordSeconds * caps.f_cpu_hz), entries));
   }
+  // Every chord queued before the flood: a receive ring that laps under the flood would take
+  // the `at` frames' bytes with it.
+  const std::optional<Status> queued = b.status(1000);
+  REQUIRE(queued);
+  REQUIRE(queued->head.queue_used == 4 * caps.motor_count);
   std::optional<Status> status;
   const uint32_t end = t0 + uint32_t((4 * kChordSeconds + 0.1) * caps.f_cpu_hz);
   const size_t frames = e2e::flood_until_exit(b, vb, nullptr, &status, pause_us, end);

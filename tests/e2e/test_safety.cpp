@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "analysis.h"
+#include "board/child_process.h"
 #include "e2e_more.h"
 #include "e2e_util.h"
 #include "trace.h"
@@ -709,21 +711,19 @@ TEST_CASE("safety: mega host killed with SIGKILL mid-chord - every motor stops w
   e2e::StoppableVboard vb({"--board", "mega", "--seconds", "60", "--trace", trace_path, "--trace-frames", "--quiet"});
   const std::string bin = std::string(STEPCHOIR_VBOARD).substr(0, std::string(STEPCHOIR_VBOARD).rfind('/'));
   const double hz[] = {220.0, 277.18, 329.63, 440.0, 554.37};
-  std::vector<pid_t> hosts;
+  std::vector<std::unique_ptr<stepchoir::ChildProcess>> hosts;
   for (int m = 0; m < 5; ++m) {
     // One process at a time on the link: each says hello, starts its note, then only sends
     // heartbeats. Wait for the note before the next one opens the port.
-    const std::string motor = std::to_string(m), freq = std::to_string(hz[m]);
-    const char *argv[] = {"stepchoir", "tone",  "--port", vb.pty().c_str(), "--motor", motor.c_str(),
-                          "--hz",      freq.c_str(), nullptr};
-    pid_t pid = 0;
-    REQUIRE(posix_spawn(&pid, (bin + "/stepchoir").c_str(), nullptr, nullptr, const_cast<char **>(argv), environ) == 0);
-    hosts.push_back(pid);
+    hosts.push_back(std::make_unique<stepchoir::ChildProcess>(
+        std::vector<std::string>{bin + "/stepchoir", "tone", "--port", vb.pty(), "--motor", std::to_string(m), "--hz",
+                                 std::to_string(hz[m])},
+        false));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  for (pid_t pid : hosts) kill(pid, SIGKILL);
-  for (pid_t pid : hosts) waitpid(pid, nullptr, 0);
+  for (auto &host : hosts) kill(host->pid(), SIGKILL);
+  for (auto &host : hosts) host->wait();
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   REQUIRE(vb.stop() == 0);
 

@@ -24,15 +24,14 @@ int exit_status(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : -
 
 ChildProcess::ChildProcess(const std::vector<std::string> &argv, Options options) {
   if (argv.empty()) throw std::runtime_error("no program to start");
+  // Close-on-exec: neither end reaches this child (but as its stdout) or any later one.
   int out[2] = {-1, -1};
+  if (options.capture_stdout && pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   if (options.capture_stdout) {
-    if (pipe(out) != 0) throw std::runtime_error("pipe failed");
     posix_spawn_file_actions_adddup2(&fa, out[1], 1);
-    posix_spawn_file_actions_addclose(&fa, out[0]);
-    posix_spawn_file_actions_addclose(&fa, out[1]);
-  } else {
+  } else if (!options.inherit_stdout) {
     posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
   }
   posix_spawnattr_t attr;
@@ -47,14 +46,13 @@ ChildProcess::ChildProcess(const std::vector<std::string> &argv, Options options
   const int rc = posix_spawn(&pid_, args[0], &fa, &attr, args.data(), environ);
   posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&fa);
-  if (options.capture_stdout) {
-    close(out[1]);
-    out_ = out[0];
-  }
+  if (options.capture_stdout) close(out[1]);
   if (rc != 0) {
+    if (options.capture_stdout) close(out[0]);
     pid_ = -1;
     throw std::runtime_error("cannot start " + argv[0]);
   }
+  out_ = out[0];
 }
 
 ChildProcess::~ChildProcess() {

@@ -14,8 +14,9 @@ namespace stepchoir {
 class ChildProcess {
  public:
   struct Options {
-    bool capture_stdout = false;  // stdout through a pipe (read_line), else /dev/null
+    bool capture_stdout = false;  // stdout through a pipe (read_line), else /dev/null ...
     bool own_group = false;       // its own process group: a terminal's Ctrl-C does not reach it
+    bool inherit_stdout = false;  // ... or, without capture_stdout, this process's stdout
   };
   // Called from: the commands and the tests. Starts argv[0] (a path) with this process's
   // environment. Throws std::runtime_error when it cannot start.

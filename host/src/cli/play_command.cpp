@@ -2,8 +2,6 @@
 // (a real one, or the virtual board started here), with a progress line and a report.
 #include "cli/play_command.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -15,6 +13,7 @@
 #include <thread>
 
 #include "board/board.h"
+#include "board/child_process.h"
 #include "board/link.h"
 #include "board/vboard_child.h"
 #include "config/config.h"
@@ -25,7 +24,6 @@
 #include "player/player.h"
 #include "song/song.h"
 
-extern char **environ;
 
 namespace stepchoir {
 
@@ -118,16 +116,14 @@ void report_plan(const std::string &cmd, const Song &song, const Plan &plan, siz
 // Runs `prog` beside this program with args, waits; its exit status (or -1).
 // Called from: render (stepchoir-render).
 int run_sibling(const std::string &vboard_path, const std::string &prog, std::vector<std::string> args) {
-  const std::string path = vboard_path.substr(0, vboard_path.rfind('/')) + "/" + prog;
-  args.insert(args.begin(), path);
-  std::vector<char *> argv;
-  for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid;
-  if (posix_spawn(&pid, path.c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  args.insert(args.begin(), vboard_path.substr(0, vboard_path.rfind('/')) + "/" + prog);
+  try {
+    ChildProcess::Options options;
+    options.inherit_stdout = true;
+    return ChildProcess(args, options).wait();
+  } catch (const std::runtime_error &) {
+    return -1;
+  }
 }
 
 // Jam: the song player's side of a board the live path drives. Frames go to the live writer

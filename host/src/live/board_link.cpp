@@ -105,13 +105,15 @@ void BoardLink::start() {
   writer_ = std::thread([this] { writer_loop(); });
 }
 
-void BoardLink::stop_writer() {
-  stop_writer_.store(true);
+void BoardLink::request_stop_writer() { stop_writer_.store(true); }
+
+void BoardLink::join_writer() {
   if (writer_.joinable()) writer_.join();
 }
 
-void BoardLink::stop_reader() {
-  stop_reader_.store(true);
+void BoardLink::request_stop_reader() { stop_reader_.store(true); }
+
+void BoardLink::join_reader() {
   if (reader_.joinable()) reader_.join();
 }
 

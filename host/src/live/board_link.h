@@ -3,19 +3,22 @@
 //
 // Concurrency contract. Who may call what, from which thread:
 //   engine thread  post(): writes the update's frame itself when the link is idle (it takes
-//                  the ownership below without waiting and makes one non-blocking write),
-//                  else queues the update for the writer. Never blocks; yields only while
-//                  the update queue is full, which only a stuck link causes.
+//                  the ownership below without waiting and makes one non-blocking write,
+//                  Link::try_write, which finishes a rare partial write blocking), else
+//                  queues the update for the writer. Yields only while the update queue is
+//                  full, which only a stuck link causes.
 //   writer thread  writer_loop(): takes the ownership (yielding while the engine holds it for
 //                  its one write), drains the queue into the coalescer and sends; heartbeats,
 //                  status requests, state refreshes, jam song frames; stop-all at the end.
 //   reader thread  reader_loop(): decodes replies into the stats; touches no sending state.
 //   song thread    queue_song_frame(), read_replies() (jam, one player a board).
-//   main thread    start(), stop_writer(), stop_reader(), detach(), attach(); stats() from
-//                  any thread.
-// The link, the coalescer and the budget belong to whoever holds the ownership flag (owned_):
-// debug builds (STEPCHOIR_RT_GUARD) assert it at every use. Every byte leaves through
-// send_wire(), which writes it, counts it in the stats and charges it to the budget, once.
+//   main thread    start(), request_stop_*() then join_*() (every board asked before any is
+//                  joined), detach(), attach(); stats() from any thread.
+// The link's write side, the coalescer and the budget belong to whoever holds the ownership
+// flag (owned_); send_wire() checks it is held in debug builds (STEPCHOIR_RT_GUARD). The
+// reader reads the link while it is attached; detach() parks both threads before a link goes
+// away. Every byte leaves through send_wire(), which writes it, counts it in the stats and
+// charges it to the budget, once.
 // The engine and writer loops run inside RtScopes: they never allocate, lock or log after
 // start() (debug builds abort if they allocate).
 #ifndef STEPCHOIR_HOST_LIVE_BOARD_LINK_H
@@ -106,9 +109,12 @@ class BoardLink {
   // starts the reader and writer threads.
   void start();
   // Called from: the main thread. The writer drains what is queued, sends stop-all and exits;
-  // then the reader. Each joins its thread.
-  void stop_writer();
-  void stop_reader();
+  // the reader exits. Every board is asked first, then joined, so that one stuck link does not
+  // keep the others from their stop-all.
+  void request_stop_writer();
+  void join_writer();
+  void request_stop_reader();
+  void join_reader();
 
   // Called from: the engine thread. Motor u.motor (the board's own index) takes u.period_q8.
   // Budget: a few us (one Coalescer copy, one frame encoded, one non-blocking write).

@@ -65,8 +65,10 @@ void LiveSession::stop() {
   stopped_ = true;
   stop_engine_.store(true);
   engine_.join();  // its last act: a silent entry for every motor
-  for (auto &b : boards_) b->stop_writer();  // each drains its queue, then sends stop-all
-  for (auto &b : boards_) b->stop_reader();
+  for (auto &b : boards_) b->request_stop_writer();  // each drains its queue, then sends stop-all
+  for (auto &b : boards_) b->join_writer();  // all asked first: one stuck link holds no other up
+  for (auto &b : boards_) b->request_stop_reader();
+  for (auto &b : boards_) b->join_reader();
 }
 
 bool LiveSession::detach_link(size_t board, int timeout_ms) { return boards_.at(board)->detach(timeout_ms); }

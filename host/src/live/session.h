@@ -10,7 +10,8 @@
 //     heartbeats, status requests, state refreshes, jam song frames.
 //   reader thread (one per board): decodes replies (errors, status) for the link health.
 // The engine and writer threads never allocate, lock or log after start() (RtScope: debug
-// builds abort if they allocate); the writer blocks only in Link::write, the engine never.
+// builds abort if they allocate); the writer blocks only in Link::write, the engine only to
+// finish a rare partial write.
 // Everything is counted in atomics that the main thread reads and logs.
 #ifndef STEPCHOIR_HOST_LIVE_SESSION_H
 #define STEPCHOIR_HOST_LIVE_SESSION_H
