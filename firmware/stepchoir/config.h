@@ -24,10 +24,11 @@ static const uint8_t kDeferPasses = 8;
 static const uint8_t kDeferBytes = 16;
 
 // The main loop takes a timestamped entry from the queue this long before its time (ticks),
-// so that it starts or strikes its motor exactly on the time: 3 ms, longer than any pass of
-// the main loop (a pass takes at most 128 bytes from the receive ring, about 1.3 ms of line
-// time).
+// so that it starts or strikes its motor exactly on the time: 3 ms. It looks at the queue at
+// the start of every pass and, between frames, every kPollBytes bytes it takes: at most a
+// frame (sc::kMaxFrameWire bytes) and kPollBytes apart, under 1 ms of line time.
 static const uint16_t kTakeTicks = 48000;
+static const uint8_t kPollBytes = 16;
 
 // While a frame is coming in, the main loop waits this long (ticks) for its next byte before
 // it goes round its loop: three byte times at 1,000,000 baud.

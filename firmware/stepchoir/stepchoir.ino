@@ -10,13 +10,21 @@ static cmd::Commands g_commands;
 // Called from: loop(). Decodes the bytes received so far, and the rest of a frame once one has
 // begun, each byte as it arrives (the wait for one: at most cfg::kByteWaitTicks). Returns how
 // many it took: from 64 on it stops between frames, and at 128 in any case (a stream of bytes
-// with no delimiter is one endless frame; the watchdog must still run).
+// with no delimiter is one endless frame; the watchdog must still run). Between frames, once
+// cfg::kPollBytes bytes came since it last looked, it takes the timed entries that are due
+// (sched::poll: about 40 cycles when none is): under a full line and busy ISRs a pass of the
+// loop can outlast cfg::kTakeTicks (2.7 ms measured on the Mega), and an entry taken that late
+// misses its time.
 static inline uint8_t take_bytes(uint16_t idle_passes) {
-  uint8_t n = 0, b;
+  uint8_t n = 0, since_poll = 0, b;
   while (link::wait_byte(&b, g_commands.in_frame() ? link::wait_passes(cfg::kByteWaitTicks) : n == 0 ? idle_passes : 0)) {
     g_commands.on_byte(b);
     link::feed_tx();  // a reply goes out a byte per byte received (or per wait pass)
     if (++n >= 64 && (!g_commands.in_frame() || n == 128)) break;
+    if (++since_poll >= cfg::kPollBytes && !g_commands.in_frame()) {
+      since_poll = 0;
+      sched::poll();
+    }
   }
   return n;
 }

@@ -59,9 +59,11 @@ tr::Trace play_chords(const std::string &board_name, std::vector<std::vector<uin
   REQUIRE(queued->head.queue_used == 4 * caps.motor_count);
   std::optional<Status> status;
   const uint32_t end = t0 + uint32_t((4 * kChordSeconds + 0.1) * caps.f_cpu_hz);
-  const size_t frames = e2e::flood_until_exit(b, vb, nullptr, &status, pause_us, end);
+  int late = 0;
+  const size_t frames = e2e::flood_until_exit(b, vb, nullptr, &status, pause_us, end, &late);
   INFO("frames sent " << frames);
   REQUIRE(status);
+  CHECK(late == 0);  // every chord's entries taken in time, however busy the main loop
   std::printf("%s: frames ok %u bad %u, uart overruns %u, late edges %u, last error %u\n", board_name.c_str(),
               status->head.frames_ok, status->head.frames_bad, status->head.uart_overruns, status->head.late_edges,
               status->head.last_error);

@@ -38,10 +38,11 @@ inline std::vector<uint8_t> at_payload(uint32_t at_ticks, const std::vector<sc::
 // Sends frames back to back until the board process exits, `stop` is set, or (until_ticks not
 // 0) a clock reply shows board time at until_ticks or later, draining replies: heartbeats and
 // status requests, the traffic a host keeps up while music plays, and a clock request a round
-// when until_ticks is set. The last status reply seen goes to *last_status.
+// when until_ticks is set. The last status reply seen goes to *last_status; the `late` errors
+// the board answered (a timed entry taken after its time) are counted in *late_replies.
 inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atomic<bool> *stop = nullptr,
                                std::optional<stepchoir::Status> *last_status = nullptr,
-                               int pause_us = 0, uint32_t until_ticks = 0) {
+                               int pause_us = 0, uint32_t until_ticks = 0, int *late_replies = nullptr) {
   const auto hb = stepchoir::frame({sc::kMsgHeartbeat});
   const auto st = stepchoir::frame({sc::kMsgStatusReq});
   const auto clock = stepchoir::frame({sc::kMsgClockReq, 0x5C});
@@ -68,6 +69,7 @@ inline size_t flood_until_exit(stepchoir::Board &b, VboardProcess &vb, std::atom
         if (until_ticks && p[0] == sc::kMsgClock && dec.payload_len() >= 6 &&
             static_cast<int32_t>(sc::get_u32(&p[2]) - until_ticks) >= 0)
           past = true;
+        if (late_replies && p[0] == sc::kMsgError && dec.payload_len() >= 2 && p[1] == sc::kErrLate) ++*late_replies;
         if (!last_status || p[0] != sc::kMsgStatus) continue;
         try {
           *last_status = stepchoir::parse_status(p, dec.payload_len());
