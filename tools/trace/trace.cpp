@@ -210,6 +210,14 @@ void Parser::parse_row(std::string_view line) {
     trace_.frame_ends.push_back(cycle);
     return;
   }
+  if (event == "reply") {
+    const uint64_t cycle = parse_unsigned<uint64_t>(field[kCycle], "cycle");
+    if (!trace_.replies.empty() && cycle < trace_.replies.back().cycle)
+      fail("reply row at cycle " + std::to_string(cycle) + " is before the previous one");
+    if (cycle > last_cycle_) last_cycle_ = cycle;
+    trace_.replies.push_back({cycle, parse_unsigned<uint64_t>(field[kPosition], "bytes")});
+    return;
+  }
   uint64_t motor64 = parse_unsigned<uint64_t>(field[kMotor], "motor");
   if (motor64 >= uint64_t(trace_.motors))
     fail("motor " + std::to_string(motor64) + " out of range (motors=" +

@@ -10,6 +10,8 @@
 //   enable,0,5,0,,                ENABLE pin change (level)
 //   frame,0,2000300,0,,           a host frame's last byte (its delimiter) reached the UART
 //                                 (with stepchoir-vboard --trace-frames; motor and value unused)
+//   reply,0,2000900,0,12,         the USB bridge passed 12 of the board's bytes to the host
+//                                 (with --trace-frames)
 //   # end cycle=160000000
 //   # summary motor=0 steps=1234 ...
 // Within one motor and one event kind the rows are in cycle order; read_trace checks that.
@@ -63,6 +65,11 @@ struct Trace {
   bool has_end = false;          // true when the "# end" line was present
   std::vector<MotorTrace> motor;          // motors entries
   std::vector<uint64_t> frame_ends;       // cycles of "frame" rows, in order (--trace-frames)
+  struct Reply {
+    uint64_t cycle;  // when the bridge passed them to the host
+    uint64_t bytes;
+  };
+  std::vector<Reply> replies;             // "reply" rows, in order (--trace-frames)
   std::vector<std::string> summary_lines; // "summary ..." comment lines, without the leading "# "
 
   // Board time of a cycle: cycle / f_cpu.

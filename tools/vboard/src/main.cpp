@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <random>
 #include <string>
 
 #include "avr_adapter.h"
@@ -21,6 +22,7 @@
 #include "options.h"
 #include "pacer.h"
 #include "pty_link.h"
+#include "usb_bridge.h"
 #include "report.h"
 #include "trace_writer.h"
 #include "virtual_board.h"
@@ -141,7 +143,9 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();
     result.state = avr.run_until(left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle);
-    link.flush_tx();
+    link.set_now_ns(static_cast<uint64_t>(static_cast<double>(avr.cycle()) * 1e9 / pacer.cycles_per_second()));
+    const size_t passed = link.flush_tx();
+    if (passed && options.trace_frames) trace.reply(avr.cycle(), passed);
     avr.maintain();
     if (result.state != CoreState::kRunning) break;
     const uint64_t now_ns = monotonic_ns();
@@ -185,6 +189,7 @@ RunFacts gather_facts(const Options &options, const BoardConfig &board, const Av
   facts.uart_out_bytes = avr.uart_out_bytes();
   facts.uart_dropped = link.tx_dropped();
   facts.host_bytes = link.rx_bytes();
+  facts.link_model = link_model_name(link.bridge().model());
   facts.line_dropped = noise.dropped();
   facts.line_corrupted = noise.corrupted();
   facts.line_duplicated = noise.duplicated();
@@ -201,6 +206,18 @@ void write_trace_preamble(const Options &options, const BoardConfig &board, cons
                 " start_position=" + std::to_string(options.start_position_steps) +
                 " seed=" + std::to_string(options.seed));
   for (const std::string &line : model.initial_lines()) trace.comment(line);
+}
+
+// The USB bridge of --link-model, its USB frames and timer at phases drawn from --seed (a real
+// bridge's clock starts at no particular moment).
+UsbBridge make_bridge(const Options &options) {
+  LinkModel model = LinkModel::kIdeal;
+  parse_link_model(options.link_model, model);
+  const BridgeTiming timing = link_model_timing(model, options.ftdi_latency_ms);
+  std::mt19937_64 rng(options.seed ^ 0x5eedb41d6eull);
+  const uint64_t frame_phase = timing.usb_frame_ns ? rng() % timing.usb_frame_ns : 0;
+  const uint64_t flush_phase = timing.flush_period_ns ? rng() % timing.flush_period_ns : 0;
+  return UsbBridge(model, timing, frame_phase, flush_phase);
 }
 
 // Everything one run needs, in construction order. real_stdout receives the pty line only.
@@ -240,6 +257,7 @@ int run(const Options &options, FILE *real_stdout) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;
   }
+  link.set_bridge(make_bridge(options));
   AvrAdapter avr(board, model, link);
   model.set_driver(&avr);
   LineNoiseRates rates;

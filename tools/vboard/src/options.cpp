@@ -1,6 +1,8 @@
 // options.cpp: command-line parsing for stepchoir-vboard.
 #include "options.h"
 
+#include "usb_bridge.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -39,6 +41,7 @@ const char *usage_text() {
          "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
+         "          [--link-model ideal|16u2|ftdi|ch340] [--ftdi-latency-ms N]\n"
          "          [--trace-frames] [--no-measure] [--exit-with-parent] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
@@ -56,6 +59,9 @@ const char *usage_text() {
          "  --line-drop P       line noise: each host byte is lost with probability P (0-0.5)\n"
          "  --line-corrupt P    ... has one or more bits flipped with probability P\n"
          "  --line-duplicate P  ... arrives twice with probability P\n"
+         "  --link-model M      the USB bridge between the pty and the UART (default ideal):\n"
+         "                      16u2 (Uno/Mega R3), ftdi (FT232R), ch340 (clones); docs/usb-bridges.md\n"
+         "  --ftdi-latency-ms N the ftdi model's latency timer (default 16; 1-255)\n"
          "  --trace-frames      also trace when each host frame's last byte reaches the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --exit-with-parent  stop (as on SIGTERM) once the process that started it is gone\n"
@@ -96,6 +102,21 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         error = "--clock-ppm needs a number between -1e6 and 1e6";
         return false;
       }
+    } else if (arg == "--link-model") {
+      if (!value_of(options.link_model)) return false;
+      LinkModel model;
+      if (!parse_link_model(options.link_model, model)) {
+        error = "--link-model must be ideal, 16u2, ftdi or ch340";
+        return false;
+      }
+    } else if (arg == "--ftdi-latency-ms") {
+      if (!value_of(value)) return false;
+      int64_t ms = 0;
+      if (!parse_int(value, ms) || ms < 1 || ms > 255) {
+        error = "--ftdi-latency-ms needs an integer from 1 to 255";
+        return false;
+      }
+      options.ftdi_latency_ms = static_cast<unsigned>(ms);
     } else if (arg == "--no-pacing") {
       options.pacing = false;
     } else if (arg == "--speed") {

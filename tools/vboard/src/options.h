@@ -25,6 +25,8 @@ struct Options {
   int stuck_switch_motor = -1;  // --stuck-switch M: motor M's switches stay pressed
   uint64_t seed = 1;
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
+  std::string link_model = "ideal";  // the USB bridge: ideal | 16u2 | ftdi | ch340
+  unsigned ftdi_latency_ms = 16;     // the ftdi model's latency timer, 1-255
   bool trace_frames = false;  // a trace row for every host frame's delimiter
   bool quiet = false;
   bool exit_with_parent = false;  // stop when the process that started it is gone

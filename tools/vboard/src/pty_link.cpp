@@ -93,10 +93,10 @@ void PtyLink::remove_link() {
 // Reads what the host wrote into the receive queue.
 void PtyLink::poll_rx() {
   uint8_t buffer[4096];
-  while (rx_queue_.size() < kRxQueueMax) {
+  while (bridge_.host_bytes_waiting() < kRxQueueMax) {
     const ssize_t count = ::read(master_fd_, buffer, sizeof buffer);
     if (count > 0) {
-      rx_queue_.insert(rx_queue_.end(), buffer, buffer + count);
+      bridge_.from_host(buffer, static_cast<size_t>(count), now_ns_);
       rx_bytes_ += static_cast<uint64_t>(count);
       if (static_cast<size_t>(count) < sizeof buffer) return;
       continue;
@@ -107,24 +107,23 @@ void PtyLink::poll_rx() {
 }
 
 // Takes the next received byte.
-uint8_t PtyLink::rx_pop() {
-  const uint8_t byte = rx_queue_.front();
-  rx_queue_.pop_front();
-  return byte;
-}
+uint8_t PtyLink::rx_pop() { return bridge_.board_byte_pop(); }
 
 // Queues one byte the AVR sent; drops it when the queue is full (the loop flushes every chunk,
 // so the queue only fills when nobody reads the pty).
 void PtyLink::tx_push(uint8_t byte) {
-  if (tx_queue_.size() >= kTxQueueMax) {
+  if (tx_queue_.size() + bridge_.board_bytes_waiting() >= kTxQueueMax) {
     ++tx_dropped_;
     return;
   }
-  tx_queue_.push_back(byte);
+  bridge_.from_board(byte, now_ns_);
 }
 
-// Writes queued bytes to the host as far as the pty accepts them.
-void PtyLink::flush_tx() {
+// Writes the bytes the bridge has passed by now to the host, as far as the pty accepts them.
+size_t PtyLink::flush_tx() {
+  const size_t held = tx_queue_.size();
+  bridge_.to_host(now_ns_, tx_queue_);
+  const size_t passed = tx_queue_.size() - held;
   size_t consumed = 0;
   while (consumed < tx_queue_.size()) {
     const ssize_t count = ::write(master_fd_, tx_queue_.data() + consumed, tx_queue_.size() - consumed);
@@ -141,6 +140,7 @@ void PtyLink::flush_tx() {
     break;  // EAGAIN: the pty is full, keep the rest for later
   }
   tx_queue_.erase(tx_queue_.begin(), tx_queue_.begin() + static_cast<std::ptrdiff_t>(consumed));
+  return passed;
 }
 
 }  // namespace vboard

@@ -4,16 +4,19 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <deque>
 #include <string>
 #include <vector>
+
+#include "usb_bridge.h"
 
 namespace vboard {
 
 // Owns a raw pty pair. The host opens slave_path(); the simulator loop calls poll_rx() and
 // flush_tx() without ever blocking. A slave fd stays open here so the pty does not hang up
 // when the host closes it. Bytes for a host that does not read are buffered up to a limit,
-// then dropped and counted.
+// then dropped and counted. Between the pty and the board's UART sits a USB bridge model
+// (usb_bridge.h; ideal unless set_bridge gives another), on host time that the loop sets with
+// set_now_ns before each chunk of simulation (so its times hold to a chunk, 20 us).
 class PtyLink {
  public:
   PtyLink() = default;
@@ -31,16 +34,23 @@ class PtyLink {
   // Removes the symlink if it still points at our slave.
   void remove_link();
 
+  // The bridge between the pty and the UART (replaces the ideal one; before any byte).
+  void set_bridge(const UsbBridge &bridge) { bridge_ = bridge; }
+  const UsbBridge &bridge() const { return bridge_; }
+  // Host time now (ns from the start of the simulation, on the host's clock).
+  void set_now_ns(uint64_t now_ns) { now_ns_ = now_ns; }
+
   // Reads what the host wrote into the receive queue (stops while the queue is full).
   void poll_rx();
-  // True when received bytes wait for the AVR.
-  bool rx_pending() const { return !rx_queue_.empty(); }
+  // True when received bytes have reached the AVR's UART.
+  bool rx_pending() const { return bridge_.board_byte_ready(now_ns_); }
   // Takes the next received byte (rx_pending() must be true).
   uint8_t rx_pop();
   // Queues one byte the AVR sent.
   void tx_push(uint8_t byte);
-  // Writes queued bytes to the host as far as the pty accepts them.
-  void flush_tx();
+  // Writes the bytes the bridge has passed to the host by now as far as the pty accepts them;
+  // returns how many the bridge passed in this call.
+  size_t flush_tx();
 
   // Bytes read from the host.
   uint64_t rx_bytes() const { return rx_bytes_; }
@@ -56,8 +66,9 @@ class PtyLink {
   int slave_fd_ = -1;
   std::string slave_path_;
   std::string link_path_;
-  std::deque<uint8_t> rx_queue_;
-  std::vector<uint8_t> tx_queue_;
+  UsbBridge bridge_{LinkModel::kIdeal, link_model_timing(LinkModel::kIdeal), 0, 0};
+  uint64_t now_ns_ = 0;
+  std::vector<uint8_t> tx_queue_;  // bytes the bridge passed to the host, not yet written
   uint64_t rx_bytes_ = 0;
   uint64_t tx_bytes_ = 0;
   uint64_t tx_dropped_ = 0;

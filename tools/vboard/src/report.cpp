@@ -62,6 +62,7 @@ std::vector<std::string> summary_lines(const RunFacts &facts, const VirtualBoard
       << " wall_seconds=" << fixed(facts.wall_seconds, 3) << " sim_mhz="
       << fixed(facts.wall_seconds > 0 ? facts.end_cycle / facts.wall_seconds / 1e6 : 0, 2)
       << " pacing=" << (facts.pacing ? "on" : "off") << " clock_ppm=" << facts.clock_ppm
+      << " link_model=" << facts.link_model
       << " pacing_lag_max_us=" << facts.lag_max_ns / 1000
       << " pacing_lag_max_cycle=" << facts.lag_max_cycle << " pacing_slipped_us=" << facts.slipped_ns / 1000;
   lines.push_back(run.str());

@@ -21,6 +21,7 @@ struct RunFacts {
   unsigned vector_size_bytes = 4;  // bytes per slot
   bool pacing = true;
   double clock_ppm = 0;
+  std::string link_model = "ideal";  // --link-model
   double wall_seconds = 0;
   uint64_t lag_max_ns = 0;
   uint64_t lag_max_cycle = 0;

@@ -108,6 +108,14 @@ void TraceWriter::frame_end(uint64_t cycle) {
   end_row();
 }
 
+void TraceWriter::reply(uint64_t cycle, uint64_t bytes) {
+  if (!file_) return;
+  row_prefix("reply", 0, cycle, false);
+  put_u64(bytes);
+  put_char(',');
+  end_row();
+}
+
 // Writes the buffer out.
 void TraceWriter::flush() {
   if (!file_) return;

@@ -44,6 +44,8 @@ class TraceWriter {
   void enable(unsigned motor, uint64_t cycle, bool level);
   // frame,0,CYCLE,0,, : a host frame's delimiter reached the UART.
   void frame_end(uint64_t cycle);
+  // reply,0,CYCLE,0,BYTES, : the USB bridge passed BYTES of the board's to the host.
+  void reply(uint64_t cycle, uint64_t bytes);
 
   // Rows written so far.
   uint64_t rows() const { return rows_; }

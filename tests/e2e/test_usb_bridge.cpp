@@ -1,0 +1,108 @@
+// test_usb_bridge.cpp: the virtual board's USB bridge models (--link-model) on the real
+// firmware: when host frames reach the UART and when replies reach the host, from the trace's
+// cycles (exact), against the ideal link.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "e2e_util.h"
+#include "trace.h"
+
+using namespace stepchoir;
+namespace tr = sc::trace;
+
+namespace {
+
+struct BridgeRun {
+  std::vector<double> frame_ns;   // host time of each host frame's delimiter at the UART
+  std::vector<double> reply_ns;   // host time of each pass of board bytes to the host
+  std::vector<uint64_t> reply_bytes;  // ... and how many
+  // Host time at which frame i's reply was whole at the host: the last pass before the next
+  // frame (the host sends it only then; a reply may go in pieces: byte by byte on the ideal
+  // link, or split by a 16U2 timer overflow).
+  double reply_done_ns(size_t i) const {
+    const double next = i + 1 < frame_ns.size() ? frame_ns[i + 1] : 1e300;
+    double done = -1;
+    for (double t : reply_ns)
+      if (t > frame_ns[i] && t < next) done = t;
+    return done;
+  }
+};
+
+// Sends `rounds` clock requests one at a time (each after the last one's reply, then a wall
+// pause of 0-2 ms so that they fall at every phase of the USB frames) through `model`.
+BridgeRun clock_rounds(const std::string &model, int rounds) {
+  const std::string trace_path = e2e::scratch("bridge-" + model + ".csv");
+  VboardProcess vb({"--board", "uno", "--no-pacing", "--seconds", "60", "--trace", trace_path,
+                           "--trace-frames", "--link-model", model, "--quiet"});
+  Board b(open_link(vb.pty()));
+  b.hello();
+  for (int i = 0; i < rounds; ++i) {
+    e2e::board_ticks(b, uint8_t(i));
+    std::this_thread::sleep_for(std::chrono::microseconds((i * 737) % 2000));
+  }
+  REQUIRE(vb.stop() == 0);
+  const tr::Trace t = tr::read_trace(trace_path);
+  BridgeRun run;
+  // The clock requests' delimiters are the last rows (before them: hello's, and its resync
+  // delimiter unless the firmware's receiver was not on yet).
+  REQUIRE(t.frame_ends.size() >= size_t(rounds + 1));
+  for (size_t i = t.frame_ends.size() - size_t(rounds); i < t.frame_ends.size(); ++i)
+    run.frame_ns.push_back(double(t.frame_ends[i]) * 1e9 / t.f_cpu_hz);
+  for (const auto &r : t.replies) {
+    run.reply_ns.push_back(double(r.cycle) * 1e9 / t.f_cpu_hz);
+    run.reply_bytes.push_back(r.bytes);
+  }
+  return run;
+}
+
+// How far apart times fall within a period (ns): the width of the smallest arc of the circle
+// of circumference `period` that holds every t mod period.
+double phase_spread(const std::vector<double> &times, double period) {
+  std::vector<double> r;
+  for (double t : times) r.push_back(std::fmod(t, period));
+  std::sort(r.begin(), r.end());
+  double widest_gap = r.front() + period - r.back();
+  for (size_t i = 1; i < r.size(); ++i) widest_gap = std::max(widest_gap, r[i] - r[i - 1]);
+  return period - widest_gap;
+}
+
+}  // namespace
+
+TEST_CASE("link: on the 16u2 model host frames land on 1 ms USB frames and replies on 4.096 ms") {
+  const int kRounds = 60;
+  const BridgeRun usb = clock_rounds("16u2", kRounds);
+  const BridgeRun ideal = clock_rounds("ideal", kRounds);
+  for (const BridgeRun *run : {&usb, &ideal}) {
+    for (size_t i = 0; i < run->frame_ns.size(); ++i) REQUIRE(run->reply_done_ns(i) > 0);
+  }
+  // Host -> board: every clock request (the same length) reaches the UART at the same point of
+  // a 1 ms frame, to the simulation's 20 us step and a byte; on the ideal link, anywhere.
+  const double usb_in = phase_spread(usb.frame_ns, 1e6), ideal_in = phase_spread(ideal.frame_ns, 1e6);
+  // Board -> host: the 16U2 passes replies at its Timer0 overflows only (hello's too).
+  const double usb_out = phase_spread(usb.reply_ns, 4096000), ideal_out = phase_spread(ideal.reply_ns, 4096000);
+  // Round trips in board time: up to a frame in, the firmware, up to an overflow out.
+  double usb_rtt_max = 0, ideal_rtt_max = 0, usb_rtt_sum = 0;
+  for (size_t i = 0; i < usb.frame_ns.size(); ++i) {
+    usb_rtt_max = std::max(usb_rtt_max, usb.reply_done_ns(i) - usb.frame_ns[i]);
+    usb_rtt_sum += usb.reply_done_ns(i) - usb.frame_ns[i];
+    ideal_rtt_max = std::max(ideal_rtt_max, ideal.reply_done_ns(i) - ideal.frame_ns[i]);
+  }
+  INFO("phase spread in: 16u2 " << usb_in / 1e3 << " us, ideal " << ideal_in / 1e3 << " us; out: 16u2 "
+                                << usb_out / 1e3 << " us, ideal " << ideal_out / 1e3 << " us; reply after the frame: 16u2 max "
+                                << usb_rtt_max / 1e3 << " us mean " << usb_rtt_sum / usb.frame_ns.size() / 1e3
+                                << " us, ideal max " << ideal_rtt_max / 1e3 << " us");
+  CHECK(usb_in < 40e3);
+  CHECK(ideal_in > 300e3);
+  CHECK(usb_out < 25e3);
+  CHECK(ideal_out > 1000e3);
+  CHECK(usb_rtt_max < 4096e3 + 300e3);
+  CHECK(usb_rtt_max > 3000e3);  // some replies just missed an overflow
+  CHECK(ideal_rtt_max < 300e3);
+  for (uint64_t n : usb.reply_bytes) CHECK(n < 97);
+}

@@ -1,0 +1,101 @@
+// usb_bridge.cpp: the USB-serial bridge models (see usb_bridge.h).
+#include "usb_bridge.h"
+
+namespace vboard {
+
+bool parse_link_model(const std::string &name, LinkModel &model) {
+  if (name == "ideal") model = LinkModel::kIdeal;
+  else if (name == "16u2") model = LinkModel::k16u2;
+  else if (name == "ftdi") model = LinkModel::kFtdi;
+  else if (name == "ch340") model = LinkModel::kCh340;
+  else return false;
+  return true;
+}
+
+const char *link_model_name(LinkModel model) {
+  switch (model) {
+    case LinkModel::kIdeal: return "ideal";
+    case LinkModel::k16u2: return "16u2";
+    case LinkModel::kFtdi: return "ftdi";
+    case LinkModel::kCh340: return "ch340";
+  }
+  return "?";
+}
+
+BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
+  BridgeTiming t;
+  switch (model) {
+    case LinkModel::kIdeal:
+      t.usb_frame_ns = 0;
+      break;
+    case LinkModel::k16u2:
+      // Timer0 at 16 MHz / 256, overflowing every 256 counts; the buffer goes when more than
+      // BUFFER_NEARLY_FULL (96) bytes wait.
+      t.flush_period_ns = 256ull * 256 * 1000000000ull / 16000000;
+      t.packet_bytes = 97;
+      break;
+    case LinkModel::kFtdi:
+      t.flush_period_ns = uint64_t(ftdi_latency_ms) * 1000000;
+      t.restart_on_packet = true;
+      t.packet_bytes = 62;  // a 64-byte packet less its two modem-status bytes
+      break;
+    case LinkModel::kCh340:
+      t.flush_period_ns = t.usb_frame_ns;
+      t.packet_bytes = 32;  // its bulk IN endpoint's packet size
+      break;
+  }
+  return t;
+}
+
+UsbBridge::UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns)
+    : model_(model), timing_(timing), frame_phase_ns_(frame_phase_ns), next_flush_ns_(flush_phase_ns) {}
+
+void UsbBridge::from_host(const uint8_t *bytes, size_t count, uint64_t now_ns) {
+  uint64_t at = now_ns;
+  if (timing_.usb_frame_ns) {  // the start of the next frame after now
+    const uint64_t since = now_ns >= frame_phase_ns_ ? now_ns - frame_phase_ns_ : 0;
+    at = frame_phase_ns_ + (since / timing_.usb_frame_ns + 1) * timing_.usb_frame_ns;
+  }
+  for (size_t i = 0; i < count; ++i) to_board_.push_back({at, bytes[i]});
+}
+
+bool UsbBridge::board_byte_ready(uint64_t now_ns) const {
+  return !to_board_.empty() && to_board_.front().at_ns <= now_ns;
+}
+
+uint8_t UsbBridge::board_byte_pop() {
+  const uint8_t byte = to_board_.front().byte;
+  to_board_.pop_front();
+  return byte;
+}
+
+void UsbBridge::from_board(uint8_t byte, uint64_t now_ns) {
+  if (!timing_.flush_period_ns) {
+    released_.push_back(byte);
+    return;
+  }
+  from_board_.push_back({now_ns, byte});
+  if (timing_.packet_bytes && from_board_.size() >= timing_.packet_bytes) {
+    release_before(now_ns + 1, released_);
+    if (timing_.restart_on_packet) next_flush_ns_ = now_ns + timing_.flush_period_ns;
+  }
+}
+
+void UsbBridge::to_host(uint64_t now_ns, std::vector<uint8_t> &out) {
+  out.insert(out.end(), released_.begin(), released_.end());
+  released_.clear();
+  if (!timing_.flush_period_ns) return;
+  while (next_flush_ns_ <= now_ns) {
+    release_before(next_flush_ns_, out);
+    next_flush_ns_ += timing_.flush_period_ns;
+  }
+}
+
+void UsbBridge::release_before(uint64_t t_ns, std::vector<uint8_t> &out) {
+  while (!from_board_.empty() && from_board_.front().at_ns < t_ns) {
+    out.push_back(from_board_.front().byte);
+    from_board_.pop_front();
+  }
+}
+
+}  // namespace vboard

@@ -1,0 +1,86 @@
+// usb_bridge.h: the USB-serial bridge between the host and the board's UART, as a real board has
+// one: when bytes written by the host reach the UART, and when bytes the board sends reach the
+// host. Pure (no simavr, no pty): time is the host's, in ns; unit-tested.
+//
+// Models (sources: docs/usb-bridges.md):
+//   ideal  bytes pass at once both ways (a pty, a native UART).
+//   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): host -> board in
+//          the next 1 ms USB frame; board -> host when the 16U2's Timer0 overflows (every
+//          4.096 ms, free-running) or as soon as more than 96 bytes wait.
+//   ftdi   FT232R boards: host -> board in the next 1 ms frame; board -> host when the
+//          latency timer expires (16 ms by default, restarted by every packet sent) or a
+//          62-byte packet is full.
+//   ch340  CH340 clones: host -> board in the next 1 ms frame; board -> host in the next 1 ms
+//          frame, or at once when a 32-byte packet is full.
+#ifndef STEPCHOIR_VBOARD_USB_BRIDGE_H
+#define STEPCHOIR_VBOARD_USB_BRIDGE_H
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+namespace vboard {
+
+enum class LinkModel { kIdeal, k16u2, kFtdi, kCh340 };
+
+// "ideal" | "16u2" | "ftdi" | "ch340"; false for anything else.
+bool parse_link_model(const std::string &name, LinkModel &model);
+const char *link_model_name(LinkModel model);
+
+// The bridge's figures (ns, bytes); what link_model_timing gives per model.
+struct BridgeTiming {
+  uint64_t usb_frame_ns = 1000000;  // host -> board: a write goes out at the next frame start
+  uint64_t flush_period_ns = 0;     // board -> host: waiting bytes go at each period's end (0: at once)
+  bool restart_on_packet = false;   // a full packet restarts the period (FTDI's latency timer)
+  size_t packet_bytes = 0;          // ... and a full packet goes at once (0: no such rule)
+};
+// ftdi_latency_ms: the FT232R's latency timer (1-255; 16 by default, 1 with low_latency).
+BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms = 16);
+
+class UsbBridge {
+ public:
+  // phase_ns: where the host's USB frames and the bridge's timer stand at host time 0 (a real
+  // bridge's clock starts at no particular moment); each below period.
+  UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns);
+
+  // Called from: the pty loop. Bytes the host wrote, read at host time now_ns.
+  void from_host(const uint8_t *bytes, size_t count, uint64_t now_ns);
+  // Called from: the UART bridge. True when a host byte has reached the board by now_ns.
+  bool board_byte_ready(uint64_t now_ns) const;
+  // Takes that byte (board_byte_ready must be true).
+  uint8_t board_byte_pop();
+  // Host bytes not yet taken by the board (released or not).
+  size_t host_bytes_waiting() const { return to_board_.size(); }
+
+  // Called from: the UART bridge. One byte the board sent, at host time now_ns.
+  void from_board(uint8_t byte, uint64_t now_ns);
+  // Called from: the pty loop. Appends to out the board's bytes the bridge has passed to the
+  // host by now_ns, in order.
+  void to_host(uint64_t now_ns, std::vector<uint8_t> &out);
+  // Board bytes the bridge still holds.
+  size_t board_bytes_waiting() const { return from_board_.size(); }
+
+  LinkModel model() const { return model_; }
+
+ private:
+  struct Timed {
+    uint64_t at_ns;  // host -> board: when it reaches the UART; board -> host: when it came
+    uint8_t byte;
+  };
+  // Releases every held board byte that came before t_ns into out.
+  void release_before(uint64_t t_ns, std::vector<uint8_t> &out);
+
+  LinkModel model_;
+  BridgeTiming timing_;
+  uint64_t frame_phase_ns_;
+  uint64_t next_flush_ns_;  // the bridge's next timer expiry
+  std::deque<Timed> to_board_;
+  std::deque<Timed> from_board_;
+  std::vector<uint8_t> released_;  // passed at once (a full packet), not yet handed to to_host
+};
+
+}  // namespace vboard
+
+#endif  // STEPCHOIR_VBOARD_USB_BRIDGE_H

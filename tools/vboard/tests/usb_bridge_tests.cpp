@@ -1,0 +1,122 @@
+// usb_bridge_tests.cpp: the USB-serial bridge models, byte by byte against their rules.
+#include <catch2/catch.hpp>
+
+#include <vector>
+
+#include "usb_bridge.h"
+
+using namespace vboard;
+
+namespace {
+
+const uint64_t kMs = 1000000;
+
+UsbBridge make(LinkModel m, uint64_t frame_phase = 0, uint64_t flush_phase = 0, unsigned ftdi_ms = 16) {
+  return UsbBridge(m, link_model_timing(m, ftdi_ms), frame_phase, flush_phase);
+}
+
+// Host time (ns) at which the board's byte sent at sent_ns reaches the host, stepping the host
+// clock by 20 us as the virtual board's loop does (sent_ns: not before the last call's answer).
+uint64_t arrival(UsbBridge &b, uint64_t sent_ns) {
+  b.from_board(0x55, sent_ns);
+  std::vector<uint8_t> out;
+  for (uint64_t t = sent_ns;; t += 20000) {
+    b.to_host(t, out);
+    if (!out.empty()) return t;
+    if (t > sent_ns + 100 * kMs) return UINT64_MAX;
+  }
+}
+
+}  // namespace
+
+TEST_CASE("usb bridge: link model names") {
+  LinkModel m;
+  for (const char *name : {"ideal", "16u2", "ftdi", "ch340"}) {
+    REQUIRE(parse_link_model(name, m));
+    CHECK(std::string(link_model_name(m)) == name);
+  }
+  CHECK_FALSE(parse_link_model("cp2102", m));
+}
+
+TEST_CASE("usb bridge: ideal passes bytes at once both ways") {
+  UsbBridge b = make(LinkModel::kIdeal);
+  const uint8_t bytes[3] = {1, 2, 3};
+  b.from_host(bytes, 3, 5000);
+  REQUIRE(b.board_byte_ready(5000));
+  CHECK(b.board_byte_pop() == 1);
+  CHECK(arrival(b, 7000) == 7000);
+}
+
+TEST_CASE("usb bridge: a host write reaches the board at the next 1 ms frame") {
+  UsbBridge b = make(LinkModel::k16u2, 300000);
+  const uint8_t byte = 0x42;
+  b.from_host(&byte, 1, 2 * kMs + 100000);  // written 0.1 ms into a frame that began at 1.3 ms
+  CHECK_FALSE(b.board_byte_ready(2 * kMs + 299999));
+  CHECK(b.board_byte_ready(2 * kMs + 300000));
+  b.from_host(&byte, 1, 2 * kMs + 300000);  // written on a frame's first ns: the next one
+  b.board_byte_pop();
+  CHECK_FALSE(b.board_byte_ready(3 * kMs + 299999));
+  CHECK(b.board_byte_ready(3 * kMs + 300000));
+}
+
+TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows") {
+  UsbBridge b = make(LinkModel::k16u2, 0, 1000000);
+  // Overflows at 1.0, 5.096, 9.192 ms ...: a byte sent at 1.2 ms waits for 5.096 ms.
+  const uint64_t t = arrival(b, 1200000);
+  CHECK(t >= 5096000);
+  CHECK(t < 5096000 + 20000);
+  // Over many bytes the wait spreads over the whole period, never longer.
+  uint64_t longest = 0, shortest = UINT64_MAX;
+  uint64_t sent = 10 * kMs;
+  for (int i = 1; i < 60; ++i) {  // host time only moves on: each byte some way after the last
+    const uint64_t got = arrival(b, sent);
+    const uint64_t wait = got - sent;
+    sent = got + uint64_t(i) * 617000 % 4096000;
+    longest = std::max(longest, wait);
+    shortest = std::min(shortest, wait);
+  }
+  CHECK(longest <= 4096000 + 20000);
+  CHECK(longest > 3800000);
+  CHECK(shortest < 300000);
+}
+
+TEST_CASE("usb bridge: 16u2 sends at once when more than 96 bytes wait") {
+  UsbBridge b = make(LinkModel::k16u2, 0, 0);
+  std::vector<uint8_t> out;
+  for (int i = 0; i < 96; ++i) b.from_board(uint8_t(i), 100000 + uint64_t(i) * 10000);
+  b.to_host(1100000, out);
+  CHECK(out.empty());  // 96 wait for the overflow at 4.096 ms
+  b.from_board(96, 1100000);
+  b.to_host(1100000, out);
+  REQUIRE(out.size() == 97);
+  for (int i = 0; i < 97; ++i) CHECK(out[size_t(i)] == uint8_t(i));
+  CHECK(b.board_bytes_waiting() == 0);
+}
+
+TEST_CASE("usb bridge: ftdi waits for its latency timer or a full 62-byte packet") {
+  UsbBridge b = make(LinkModel::kFtdi, 0, 16 * kMs);
+  CHECK(arrival(b, 1 * kMs) == 16 * kMs);  // the timer expires at 16 ms
+  // A full packet goes at once and restarts the timer.
+  std::vector<uint8_t> out;
+  for (int i = 0; i < 62; ++i) b.from_board(uint8_t(i), 20 * kMs);
+  b.to_host(20 * kMs, out);
+  CHECK(out.size() == 62);
+  out.clear();
+  b.from_board(1, 21 * kMs);
+  b.to_host(35 * kMs, out);
+  CHECK(out.empty());  // 20 + 16 = 36 ms, not the old period's 32 ms
+  b.to_host(36 * kMs, out);
+  CHECK(out.size() == 1);
+  // With the latency timer at 1 ms (the low-latency flag) a byte waits at most 1 ms.
+  UsbBridge fast = make(LinkModel::kFtdi, 0, 0, 1);
+  CHECK(arrival(fast, 1500000) - 1500000 <= 500000);
+}
+
+TEST_CASE("usb bridge: ch340 sends in the next 1 ms frame, or a full 32-byte packet at once") {
+  UsbBridge b = make(LinkModel::kCh340, 0, 0);
+  CHECK(arrival(b, 2400000) == 3 * kMs);
+  std::vector<uint8_t> out;
+  for (int i = 0; i < 32; ++i) b.from_board(uint8_t(i), 5100000);
+  b.to_host(5100000, out);
+  CHECK(out.size() == 32);
+}
