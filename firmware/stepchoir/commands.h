@@ -22,6 +22,10 @@ class Commands {
   // Called from: setup(). Defaults: every motor allowed kPeriodQ8Min..kPeriodQ8Max.
   void init();
 
+  // Called from: setup(), last. Sends the capabilities unasked: a host that opened the port
+  // (which resets an Uno or a Mega) waits for them rather than send into the bootloader.
+  void announce() { reply_caps(); }
+
   // Called from: main loop (take_bytes in stepchoir.ino; tests, fuzzing), for each byte
   // received. Decodes frames and runs their handlers. Inlined: a byte costs about 60 cycles
   // (the line brings one every 160), so the loop keeps up with the line and a frame is handled

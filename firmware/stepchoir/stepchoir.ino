@@ -34,6 +34,7 @@ void setup() {
   drivers::begin();
   link::begin();
   g_commands.init();
+  g_commands.announce();
 }
 
 // Main loop: take received bytes into the frame decoder, watchdog and late replies (poll),

@@ -25,7 +25,7 @@ grep -q "^motor 3 endstops: none" <<<"$out"
 status=$("$bin/stepchoir" status --port "$link")
 grep -q "^frames_bad: 0$" <<<"$status"
 "$bin/stepchoir" tone --port "$link" --motor 1 --hz 300 --seconds 5 & tone=$!
-sleep 1
+sleep 2.5  # its open reset the board (DTR): the bootloader holds it 1.4 s, then the tone plays
 "$bin/stepchoir" panic --port "$link" | grep -q "every motor silent, drivers off"
 kill $tone 2>/dev/null || true
 wait $tone 2>/dev/null || true

@@ -258,12 +258,15 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   const std::string song = write_test_song("play-reset.mid");
   const std::string link = scratch("play-reset.pty");
   const std::string trace2 = scratch("play-reset-after.csv");
-  auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--link", link, "--quiet"});
+  // The boards reset when play opens them, as an Uno does: play waits out the bootloader
+  // (1.4 s) both times.
+  auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--quiet"});
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--tempo", "0.5", "--port", link, "--quiet"}, true);
-  std::this_thread::sleep_for(std::chrono::milliseconds(3000));  // a second of sync, then into the song
+  std::this_thread::sleep_for(std::chrono::milliseconds(3200));  // the bootloader, a second of sync, then into the song
   vb.reset();  // the board goes away (SIGTERM: power off) ...
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--link", link, "--trace", trace2, "--quiet"});
+  vb = std::make_unique<VboardProcess>(
+      std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--trace", trace2, "--quiet"});
   const std::string out = play.read_rest(60000);  // ... and comes back
   const int status = play.wait();
   vb->stop();
@@ -276,8 +279,8 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   const Plan plan = plan_for(song, static_cast<size_t>(t.motors), 0.5, {1, 2});
   const double song_s = plan.duration_s;
   // The plan's last notes: those that start in the song's last 3.5 seconds (the new board is
-  // up and synced well before: the song was 1.7 s in when the board went away for 0.5 s, and
-  // the new board's first notes are from about 2.7 s on). Two of them start on a silent motor:
+  // up and synced before: the song was under a second in when the board went away for 0.5 s,
+  // and the new board, after its bootloader and a second of sync, plays from about 3 s on). Two of them start on a silent motor:
   // check_score fixes its line (offset and tempo) on those. With one only (the last two
   // seconds) it takes the tempo as exact, and the host's rate, measured on the first board
   // against a wall clock this machine stalls, was off by 58 ppm in a run that failed: 1.2 s

@@ -713,13 +713,15 @@ TEST_CASE("safety: mega host killed with SIGKILL mid-chord - every motor stops w
   const double hz[] = {220.0, 277.18, 329.63, 440.0, 554.37};
   std::vector<std::unique_ptr<stepchoir::ChildProcess>> hosts;
   for (int m = 0; m < 5; ++m) {
-    // One process at a time on the link: each says hello, starts its note, then only sends
-    // heartbeats. Wait for the note before the next one opens the port.
+    // One process at a time on the link: each greets the board, starts its note, then only
+    // sends heartbeats. Wait for the note before the next one opens the port: the board does
+    // not reset on open here, so each waits Board::kBootWaitMs for capabilities that do not
+    // come, then asks.
     hosts.push_back(std::make_unique<stepchoir::ChildProcess>(
         std::vector<std::string>{bin + "/stepchoir", "tone", "--port", vb.pty(), "--motor", std::to_string(m), "--hz",
                                  std::to_string(hz[m])},
         false));
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    std::this_thread::sleep_for(std::chrono::milliseconds(Board::kBootWaitMs + 300));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   for (auto &host : hosts) kill(host->pid(), SIGKILL);

@@ -51,7 +51,7 @@ BridgeRun clock_rounds(const std::string &model, int rounds) {
   BridgeRun run;
   // The clock requests' delimiters are the last rows (before them: hello's, and its resync
   // delimiter unless the firmware's receiver was not on yet).
-  REQUIRE(t.frame_ends.size() >= size_t(rounds + 1));
+  REQUIRE(t.frame_ends.size() >= size_t(rounds));
   for (size_t i = t.frame_ends.size() - size_t(rounds); i < t.frame_ends.size(); ++i)
     run.frame_ns.push_back(double(t.frame_ends[i]) * 1e9 / t.f_cpu_hz);
   for (const auto &r : t.replies) {
@@ -105,4 +105,53 @@ TEST_CASE("link: on the 16u2 model host frames land on 1 ms USB frames and repli
   CHECK(usb_rtt_max > 3000e3);  // some replies just missed an overflow
   CHECK(ideal_rtt_max < 300e3);
   for (uint64_t n : usb.reply_bytes) CHECK(n < 97);
+}
+
+TEST_CASE("link: opening the port resets an Uno or a Mega, and the host waits out the bootloader") {
+  for (const std::string board : {"uno", "mega"}) {
+    INFO(board);
+    const std::string trace_path = e2e::scratch("reset-" + board + ".csv");
+    {
+      VboardProcess vb({"--board", board, "--auto-reset", "--link-model", "16u2", "--no-pacing", "--seconds", "30",
+                        "--trace", trace_path, "--trace-frames", "--quiet"});
+      // The test's own open resets the board; greet sends nothing until the firmware's
+      // capabilities come, then a tone plays.
+      Board b(open_link(vb.pty()));
+      const Caps caps = b.greet();
+      CHECK(caps.motor_count >= 4);
+      e2e::board_ticks(b, 7);
+      REQUIRE(vb.stop() == 0);
+    }
+    const tr::Trace t = tr::read_trace(trace_path);
+    REQUIRE(t.resets.size() == 1);
+    // Nothing the host sent reached the UART before the firmware said it was there: the first
+    // frame is the clock request, after the capabilities (the first pass of bytes to the host).
+    REQUIRE(!t.replies.empty());
+    const double boot_ms = double(t.replies.front().cycle - t.resets.front()) * 1e3 / t.f_cpu_hz;
+    INFO("capabilities reached the host " << boot_ms << " ms after the reset");
+    CHECK(boot_ms > (board == "uno" ? 1375.0 : 833.0));
+    CHECK(boot_ms < (board == "uno" ? 1375.0 : 833.0) + 10.0);  // the firmware's start, a 16U2 batch
+    CHECK(std::none_of(t.frame_ends.begin(), t.frame_ends.end(), [&](uint64_t c) { return c < t.replies.front().cycle; }));
+    bool lost_none = false;
+    for (const std::string &line : t.summary_lines)
+      if (line.find("uart_in_lost=0 ") != std::string::npos) lost_none = true;
+    CHECK(lost_none);
+  }
+  // The contrast: a hello sent at once after the open is lost in the Uno's bootloader (1.4 s),
+  // which outlasts hello's three tries.
+  VboardProcess vb({"--board", "uno", "--auto-reset", "--seconds", "30", "--quiet"});  // in real time
+  Board b(open_link(vb.pty()));
+  CHECK_THROWS(b.hello(1200));
+  CHECK(b.greet().motor_count == 4);  // its announcement still waits in the pty
+}
+
+TEST_CASE("link: stepchoir hello greets an Uno and a Mega that its open resets") {
+  for (const std::string board : {"uno", "mega"}) {
+    VboardProcess vb({"--board", board, "--auto-reset", "--link-model", "16u2", "--quiet"});
+    stepchoir::ChildProcess cli({STEPCHOIR_BIN, "hello", "--port", vb.pty()}, true);
+    const std::string out = cli.read_rest(10000);
+    INFO(out);
+    CHECK(cli.wait() == 0);
+    CHECK(out.find(board == "uno" ? "uno_cnc_shield_v3" : "mega_ramps_14") != std::string::npos);
+  }
 }

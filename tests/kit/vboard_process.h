@@ -5,6 +5,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -38,9 +39,13 @@ class VboardProcess {
   const std::string &pty() const { return pty_; }
 
  private:
+  // A test's board starts its firmware at once and is not reset by the test's open of its
+  // pty, unless the test asks for a real board's reset and bootloader ("--auto-reset").
   static std::vector<std::string> with_binary(const std::vector<std::string> &args) {
     std::vector<std::string> all{STEPCHOIR_VBOARD};
     all.insert(all.end(), args.begin(), args.end());
+    if (std::find(args.begin(), args.end(), "--auto-reset") == args.end())
+      all.insert(all.end(), {"--no-auto-reset", "--no-bootloader"});
     return all;
   }
   stepchoir::ChildProcess child_;

@@ -202,19 +202,24 @@ void Parser::parse_row(std::string_view line) {
     fail("expected " + std::to_string(kFieldCount) + " fields, got " + std::to_string(count));
 
   std::string_view event = field[kEvent];
-  if (event == "frame") {
+  // A board-wide row (no motor): its cycle, not before the previous row of its kind.
+  auto ordered_cycle = [&](uint64_t previous) {
     const uint64_t cycle = parse_unsigned<uint64_t>(field[kCycle], "cycle");
-    if (!trace_.frame_ends.empty() && cycle < trace_.frame_ends.back())
-      fail("frame row at cycle " + std::to_string(cycle) + " is before the previous one");
+    if (cycle < previous)
+      fail(std::string(event) + " row at cycle " + std::to_string(cycle) + " is before the previous one");
     if (cycle > last_cycle_) last_cycle_ = cycle;
-    trace_.frame_ends.push_back(cycle);
+    return cycle;
+  };
+  if (event == "frame") {
+    trace_.frame_ends.push_back(ordered_cycle(trace_.frame_ends.empty() ? 0 : trace_.frame_ends.back()));
+    return;
+  }
+  if (event == "reset") {
+    trace_.resets.push_back(ordered_cycle(trace_.resets.empty() ? 0 : trace_.resets.back()));
     return;
   }
   if (event == "reply") {
-    const uint64_t cycle = parse_unsigned<uint64_t>(field[kCycle], "cycle");
-    if (!trace_.replies.empty() && cycle < trace_.replies.back().cycle)
-      fail("reply row at cycle " + std::to_string(cycle) + " is before the previous one");
-    if (cycle > last_cycle_) last_cycle_ = cycle;
+    const uint64_t cycle = ordered_cycle(trace_.replies.empty() ? 0 : trace_.replies.back().cycle);
     trace_.replies.push_back({cycle, parse_unsigned<uint64_t>(field[kPosition], "bytes")});
     return;
   }

@@ -109,6 +109,11 @@ std::optional<std::vector<uint8_t>> Board::wait_reply(uint8_t type, int timeout_
   }
 }
 
+Caps Board::greet(int boot_wait_ms, int hello_timeout_ms) {
+  if (auto r = wait_reply(sc::kMsgCaps, boot_wait_ms)) return parse_caps(r->data(), r->size());
+  return hello(hello_timeout_ms);
+}
+
 Caps Board::hello(int timeout_ms) {
   resync();
   for (int attempt = 0; attempt < 3; ++attempt) {

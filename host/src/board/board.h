@@ -73,6 +73,15 @@ class Board {
   // Asks for capabilities, retrying a few times; throws when the board never answers.
   Caps hello(int timeout_ms = 1500);
 
+  // The first exchange on a port just opened. An Uno or a Mega resets when its port opens (DTR)
+  // and its bootloader holds it up to about 1.4 s, losing what the host sends meanwhile (a
+  // Mega's stays in it while bytes keep coming): so this only listens, up to boot_wait_ms, for
+  // the capabilities the firmware sends unasked when it starts; without them (a board that did
+  // not reset) it asks with hello(hello_timeout_ms). Throws when the board never answers.
+  Caps greet(int boot_wait_ms = kBootWaitMs, int hello_timeout_ms = 1500);
+  // Longer than either bootloader holds the board (tools/vboard/src/board_config.cpp).
+  static constexpr int kBootWaitMs = 2000;
+
   // Asks for status; nullopt on timeout.
   std::optional<Status> status(int timeout_ms = 500);
 

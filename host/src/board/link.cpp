@@ -3,7 +3,9 @@
 
 #include <fcntl.h>
 #include <libserialport.h>
+#include <linux/serial.h>
 #include <poll.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -36,6 +38,7 @@ class TermiosLink : public Link {
     t.c_cc[VMIN] = 0;
     t.c_cc[VTIME] = 0;
     tcsetattr(fd_, TCSANOW, &t);
+    tcflush(fd_, TCIOFLUSH);  // bytes from before the open are stale (a reset board says hello anew)
   }
   ~TermiosLink() override { ::close(fd_); }
 
@@ -96,6 +99,8 @@ class SerialLink : public Link {
     sp_set_parity(port_, SP_PARITY_NONE);
     sp_set_stopbits(port_, 1);
     sp_set_flowcontrol(port_, SP_FLOWCONTROL_NONE);
+    sp_flush(port_, SP_BUF_BOTH);  // bytes from before the open are stale (a reset board says hello anew)
+    set_low_latency();
   }
   ~SerialLink() override {
     sp_close(port_);
@@ -121,6 +126,17 @@ class SerialLink : public Link {
 
  private:
   std::string path_;
+  // Asks the serial driver to pass received bytes on at once (ASYNC_LOW_LATENCY: an FTDI
+  // bridge's latency timer goes from 16 ms to 1 ms). Drivers without the flag refuse it,
+  // harmlessly.
+  void set_low_latency() {
+    int fd = -1;
+    if (sp_get_port_handle(port_, &fd) != SP_OK || fd < 0) return;
+    serial_struct serial{};
+    if (ioctl(fd, TIOCGSERIAL, &serial) != 0) return;
+    serial.flags |= ASYNC_LOW_LATENCY;
+    ioctl(fd, TIOCSSERIAL, &serial);
+  }
   sp_port *port_ = nullptr;
 };
 

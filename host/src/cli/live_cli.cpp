@@ -78,7 +78,7 @@ void reconnect(LiveSession &session, size_t b, const std::string &path, size_t m
   while (!stop.load()) {
     try {
       auto board = std::make_unique<Board>(open_link(path));
-      const Caps caps = board->hello(600);
+      const Caps caps = board->greet(Board::kBootWaitMs, 600);
       if (caps.motor_count != motors)
         throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
       session.attach_link(b, &board->link());
@@ -169,7 +169,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::vector<LiveBoard> pool;
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
-    const Caps caps = boards.back()->hello();
+    const Caps caps = boards.back()->greet();
     if (b < cfg.boards.size()) configure_motors(*boards.back(), caps, cfg.boards[b], ports[b]);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }

@@ -56,8 +56,7 @@ void print_status(const stepchoir::Status &s) {
 }
 
 // `stepchoir tone`: one motor at one frequency, heartbeats meanwhile, silence at the end.
-int run_tone(stepchoir::Board &board, int motor, double hz, double seconds) {
-  const stepchoir::Caps caps = board.hello();
+int run_tone(stepchoir::Board &board, const stepchoir::Caps &caps, int motor, double hz, double seconds) {
   if (motor < 0 || motor >= caps.motor_count) {
     std::fprintf(stderr, "stepchoir tone: --motor %d: the board has motors 0-%d\n", motor, caps.motor_count - 1);
     return 2;
@@ -174,14 +173,9 @@ int main(int argc, char **argv) {
       return 0;
     }
     stepchoir::Board board(stepchoir::open_link(port));
-    if (app.got_subcommand(hello)) {
-      print_caps(board.hello());
-    } else if (app.got_subcommand(status)) {
-      board.resync();
-      auto s = board.status(1000);
-      if (!s) throw std::runtime_error(port + ": no status reply");
-      print_status(*s);
-    } else if (app.got_subcommand(panic)) {
+    if (app.got_subcommand(panic)) {
+      // At once: a board that the open reset is silent already; one that it did not reset
+      // (no DTR reset wired) stops now.
       board.resync();
       for (int attempt = 0;; ++attempt) {
         board.send({sc::kMsgStopAll});
@@ -190,11 +184,20 @@ int main(int argc, char **argv) {
         if (s)
           for (const auto &m : s->motors) silent = silent && !(m.flags & sc::kMotorSounding);
         if (silent) break;
-        if (attempt == 2) throw std::runtime_error(port + ": stop-all sent, but the board does not report silence");
+        if (attempt == 4) throw std::runtime_error(port + ": stop-all sent, but the board does not report silence");
       }
       std::printf("%s: every motor silent, drivers off\n", port.c_str());
+      return 0;
+    }
+    const stepchoir::Caps caps = board.greet();  // waits out a reset by the open (DTR)
+    if (app.got_subcommand(hello)) {
+      print_caps(caps);
+    } else if (app.got_subcommand(status)) {
+      auto s = board.status(1000);
+      if (!s) throw std::runtime_error(port + ": no status reply");
+      print_status(*s);
     } else if (app.got_subcommand(tone)) {
-      return run_tone(board, motor, hz, seconds);
+      return run_tone(board, caps, motor, hz, seconds);
     }
   } catch (const std::exception &e) {
     std::fprintf(stderr, "stepchoir: %s\n", e.what());

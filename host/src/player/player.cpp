@@ -266,7 +266,7 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
         if (!opener_) throw std::runtime_error("cannot be opened again");
         board_ = std::make_unique<Board>(opener_());
       }
-      const Caps caps = board_->hello();
+      const Caps caps = board_lost_ ? board_->greet() : board_->hello();
       if (caps.motor_count != caps_.motor_count || caps.f_cpu_hz != caps_.f_cpu_hz)
         throw std::runtime_error("a different board answered");
       break;

@@ -81,17 +81,21 @@ bool AvrAdapter::load(const std::string &elf_path, std::string &error) {
   avr_load_firmware(avr_, &firmware);
   avr_->frequency = board_.f_cpu_hz;
   avr_->sleep = &AvrAdapter::no_sleep;  // pacing is ours; never usleep inside the core
-  // simavr polls a low INTn pin every cycle in level mode (the reset default), even with the
-  // interrupt disabled; INT0/INT1 are the X/Y STEP pins on the Uno, low most of the time, and the
-  // polling makes the run 5x slower. With strict mode off a level-mode INTn fires on the falling
-  // edge only.
-  for (uint8_t int_number = 0; int_number < EXTINT_COUNT; ++int_number)
-    avr_extint_set_strict_lvl_trig(avr_, int_number, 0);
+  relax_level_interrupts();
   if (!find_modules(error)) return false;
   apply_initial_levels();
   hook_callbacks();
   fix_uart_timing();
   return true;
+}
+
+// simavr polls a low INTn pin every cycle in level mode (what every reset sets), even with the
+// interrupt disabled; INT0/INT1 are the X/Y STEP pins on the Uno, low most of the time, and the
+// polling makes the run 5x slower. With strict mode off a level-mode INTn fires on the falling
+// edge only.
+void AvrAdapter::relax_level_interrupts() {
+  for (uint8_t int_number = 0; int_number < EXTINT_COUNT; ++int_number)
+    avr_extint_set_strict_lvl_trig(avr_, int_number, 0);
 }
 
 // Looks up simavr's UART0 and the port modules of the switch pins; clears UART stdio/poll-sleep.

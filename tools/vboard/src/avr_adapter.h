@@ -35,6 +35,17 @@ class AvrAdapter : public SwitchPinDriver {
   static void install_logger(bool quiet);
   // Creates the MCU, loads elf_path, sets initial pin levels and hooks pins and UART0.
   bool load(const std::string &elf_path, std::string &error);
+  // The board's bootloader, as what it does to the firmware and the host: for `cycles` from
+  // now the core runs an idle loop in the boot section with the UART off (host bytes that come
+  // meanwhile are lost), then the firmware starts from address 0. Called after load(): at
+  // power-on (a Mega's bootloader waits then too), and by reset_by_host.
+  void hold_in_bootloader(uint64_t cycles);
+  // Called from: the run loop, between chunks. Starts the firmware once the bootloader's time
+  // is out (to a chunk).
+  void leave_bootloader_when_done();
+  // Resets the MCU as DTR's pulse on RESET does when the host opens the port (MCUSR EXTRF),
+  // the bootloader first for bootloader_cycles (0: none).
+  void reset_by_host(uint64_t bootloader_cycles);
   // Feeds every step to profiler (nullptr = no per-instruction accounting).
   void set_profiler(CpuProfiler *profiler) { profiler_ = profiler; }
   // Applies faults to every host byte (nullptr = a clean line). Must outlive the adapter.
@@ -85,6 +96,8 @@ class AvrAdapter : public SwitchPinDriver {
 
   // Looks up simavr's UART0 and port modules.
   bool find_modules(std::string &error);
+  // Level-mode INTn interrupts on the falling edge only (after load and after every reset).
+  void relax_level_interrupts();
   // Sets the initial pin levels the firmware sees.
   void apply_initial_levels();
   // Registers the pin, UART and XON/XOFF callbacks.
@@ -131,6 +144,8 @@ class AvrAdapter : public SwitchPinDriver {
   uint64_t uart_out_bytes_ = 0;
   uint64_t uart_xoff_count_ = 0;
   uint64_t uart_would_overrun_ = 0;
+  uint64_t boot_end_cycle_ = 0;  // the bootloader's idle loop runs until this cycle
+  bool in_bootloader_ = false;
 };
 
 }  // namespace vboard

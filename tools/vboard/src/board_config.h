@@ -35,6 +35,10 @@ struct BoardConfig {
   unsigned vector_count = 0;  // interrupt vectors incl. reset
   bool enable_active_low = true;
   std::vector<MotorConfig> motors;
+  // The board's bootloader: how long it holds the board after the host's reset before the
+  // firmware starts (ms), and whether it holds it at power-on too.
+  double bootloader_ms = 0;
+  bool bootloader_at_power_on = false;
 };
 
 // Fills config for "uno" or "mega"; returns false for an unknown name.

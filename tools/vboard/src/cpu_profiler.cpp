@@ -52,7 +52,7 @@ CpuProfiler::CpuProfiler(uint32_t flash_bytes, unsigned vector_count, unsigned v
 // Closes an interrupts-off window still open at the end of the run.
 void CpuProfiler::finish(uint64_t cycle, bool i_flag) {
   if (!armed_) {
-    boot_irq_off_cycles_ = cycle;  // interrupts were never enabled
+    boot_irq_off_cycles_ = cycle - reset_cycle_;  // interrupts were never enabled
     return;
   }
   if (i_flag) return;
@@ -75,7 +75,7 @@ void CpuProfiler::irq_off_begin(const InstructionSample &s) {
 void CpuProfiler::irq_off_end(const InstructionSample &s) {
   if (!armed_) {
     armed_ = true;
-    boot_irq_off_cycles_ = s.cycle_after;
+    boot_irq_off_cycles_ = s.cycle_after - reset_cycle_;
     return;
   }
   const uint64_t window_cycles = s.cycle_after - off_start_cycle_;

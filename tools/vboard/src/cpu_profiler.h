@@ -58,6 +58,14 @@ class CpuProfiler {
   // Accounts one simulator step.
   inline void on_step(const InstructionSample &s);
 
+  // The MCU was reset at cycle (the host's open, through DTR): no ISR runs any more, and the
+  // windows until the first SEI are the boot's again.
+  void on_reset(uint64_t cycle) {
+    depth_ = 0;
+    armed_ = false;
+    reset_cycle_ = cycle;
+  }
+
   // Closes an interrupts-off window still open at the end of the run.
   void finish(uint64_t cycle, bool i_flag);
 
@@ -67,7 +75,8 @@ class CpuProfiler {
   uint32_t irq_off_max_pc_bytes() const { return irq_off_max_pc_bytes_; }
   // Cycle at which that window started.
   uint64_t irq_off_max_start_cycle() const { return irq_off_max_start_cycle_; }
-  // Cycles from reset to the first SEI (the whole run if interrupts were never enabled).
+  // Cycles from the last reset to the first SEI after it (the whole run if interrupts were
+  // never enabled).
   uint64_t boot_irq_off_cycles() const { return boot_irq_off_cycles_; }
   // True once interrupts were enabled the first time.
   bool boot_done() const { return armed_; }
@@ -105,6 +114,7 @@ class CpuProfiler {
   uint32_t irq_off_max_pc_bytes_ = 0;
   uint64_t irq_off_max_start_cycle_ = 0;
   uint64_t boot_irq_off_cycles_ = 0;
+  uint64_t reset_cycle_ = 0;
 };
 
 // Accounts one simulator step (hot path: a few compares unless something changed).

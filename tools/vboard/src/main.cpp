@@ -118,7 +118,11 @@ struct LoopResult {
   uint64_t lag_max_ns = 0;
   uint64_t lag_max_cycle = 0;
   uint64_t slipped_ns = 0;
+  uint64_t host_resets = 0;  // resets by the host's open of the pty
 };
+
+// Board cycles in ms of its time.
+uint64_t ms_to_cycles(double ms, const BoardConfig &board) { return static_cast<uint64_t>(ms * board.f_cpu_hz / 1000); }
 
 // The simulation loop: chunks of kChunkUs simulated time; between chunks the pty is polled and
 // flushed, the trace written out now and then, and (when pacing) the loop sleeps while ahead.
@@ -139,6 +143,12 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   while (!g_stop_signal && avr.cycle() < end_cycle) {
     // A board started by a program (stepchoir play, render) goes when it goes, even killed.
     if (options.exit_with_parent && getppid() != parent) g_stop_signal = SIGHUP;
+    if (link.take_host_open() && options.auto_reset) {
+      avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
+      trace.reset(avr.cycle());
+      ++result.host_resets;
+    }
+    avr.leave_bootloader_when_done();
     link.poll_rx();
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();
@@ -190,6 +200,7 @@ RunFacts gather_facts(const Options &options, const BoardConfig &board, const Av
   facts.uart_dropped = link.tx_dropped();
   facts.host_bytes = link.rx_bytes();
   facts.link_model = link_model_name(link.bridge().model());
+  facts.host_resets = result.host_resets;
   facts.line_dropped = noise.dropped();
   facts.line_corrupted = noise.corrupted();
   facts.line_duplicated = noise.duplicated();
@@ -271,6 +282,7 @@ int run(const Options &options, FILE *real_stdout) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;
   }
+  if (options.bootloader && board.bootloader_at_power_on) avr.hold_in_bootloader(ms_to_cycles(board.bootloader_ms, board));
   std::unique_ptr<CpuProfiler> profiler;
   if (options.measure) {
     profiler.reset(new CpuProfiler(avr.flash_bytes(), board.vector_count, avr.vector_size_bytes(),

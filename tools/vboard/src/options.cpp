@@ -42,6 +42,7 @@ const char *usage_text() {
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
          "          [--link-model ideal|16u2|ftdi|ch340] [--ftdi-latency-ms N]\n"
+         "          [--auto-reset | --no-auto-reset] [--no-bootloader]\n"
          "          [--trace-frames] [--no-measure] [--exit-with-parent] [--quiet]\n"
          "Runs the stepchoir firmware ELF in simavr; UART0 is a pty (printed as 'pty: PATH').\n"
          "  --elf PATH          firmware (default <bindir>/../firmware/stepchoir-<board>.elf)\n"
@@ -62,6 +63,9 @@ const char *usage_text() {
          "  --link-model M      the USB bridge between the pty and the UART (default ideal):\n"
          "                      16u2 (Uno/Mega R3), ftdi (FT232R), ch340 (clones); docs/usb-bridges.md\n"
          "  --ftdi-latency-ms N the ftdi model's latency timer (default 16; 1-255)\n"
+         "  --no-auto-reset     the host's open of the pty does not reset the board (default:\n"
+         "                      it does, as DTR does on an Uno or Mega; --auto-reset says so)\n"
+         "  --no-bootloader     no bootloader in flash: every reset starts the firmware at once\n"
          "  --trace-frames      also trace when each host frame's last byte reaches the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --exit-with-parent  stop (as on SIGTERM) once the process that started it is gone\n"
@@ -117,6 +121,12 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         return false;
       }
       options.ftdi_latency_ms = static_cast<unsigned>(ms);
+    } else if (arg == "--auto-reset") {
+      options.auto_reset = true;
+    } else if (arg == "--no-auto-reset") {
+      options.auto_reset = false;
+    } else if (arg == "--no-bootloader") {
+      options.bootloader = false;
     } else if (arg == "--no-pacing") {
       options.pacing = false;
     } else if (arg == "--speed") {

@@ -27,6 +27,8 @@ struct Options {
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
   std::string link_model = "ideal";  // the USB bridge: ideal | 16u2 | ftdi | ch340
   unsigned ftdi_latency_ms = 16;     // the ftdi model's latency timer, 1-255
+  bool bootloader = true;  // the board's bootloader in flash, run at every reset
+  bool auto_reset = true;  // the host's open of the pty resets the board (DTR)
   bool trace_frames = false;  // a trace row for every host frame's delimiter
   bool quiet = false;
   bool exit_with_parent = false;  // stop when the process that started it is gone

@@ -2,6 +2,7 @@
 #include "pty_link.h"
 
 #include <fcntl.h>
+#include <sys/inotify.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
@@ -15,6 +16,7 @@ namespace vboard {
 // Closes the pty and removes the link.
 PtyLink::~PtyLink() {
   remove_link();
+  if (inotify_fd_ >= 0) ::close(inotify_fd_);
   if (slave_fd_ >= 0) ::close(slave_fd_);
   if (master_fd_ >= 0) ::close(master_fd_);
 }
@@ -47,6 +49,12 @@ bool PtyLink::open(std::string &error) {
   cfsetospeed(&tio, B1000000);
   if (tcsetattr(slave_fd_, TCSANOW, &tio) != 0) {
     error = std::string("tcsetattr failed: ") + std::strerror(errno);
+    return false;
+  }
+  // Opens of the slave from now on are the host's (ours came before the watch).
+  inotify_fd_ = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+  if (inotify_fd_ < 0 || inotify_add_watch(inotify_fd_, slave_path_.c_str(), IN_OPEN | IN_CLOSE) < 0) {
+    error = std::string("cannot watch the pty for opens: ") + std::strerror(errno);
     return false;
   }
   const int flags = fcntl(master_fd_, F_GETFL);
@@ -88,6 +96,21 @@ void PtyLink::remove_link() {
     if (slave_path_ == target) unlink(link_path_.c_str());
   }
   link_path_.clear();
+}
+
+bool PtyLink::take_host_open() {
+  bool opened = false;
+  alignas(inotify_event) char buffer[4096];
+  for (;;) {
+    const ssize_t count = ::read(inotify_fd_, buffer, sizeof buffer);
+    if (count <= 0) return opened;  // EAGAIN: no more events
+    for (ssize_t at = 0; at < count;) {
+      const inotify_event *event = reinterpret_cast<const inotify_event *>(buffer + at);
+      if (event->mask & IN_OPEN) opened = opened || host_opens_++ == 0;
+      if ((event->mask & IN_CLOSE) && host_opens_ > 0) --host_opens_;
+      at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
+    }
+  }
 }
 
 // Reads what the host wrote into the receive queue.

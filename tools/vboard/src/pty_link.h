@@ -40,6 +40,11 @@ class PtyLink {
   // Host time now (ns from the start of the simulation, on the host's clock).
   void set_now_ns(uint64_t now_ns) { now_ns_ = now_ns; }
 
+  // True when the host opened the pty while nobody had it open, since the last call (inotify
+  // on the slave): a real port's first open raises DTR, which resets an Uno or a Mega; a second
+  // program opening it meanwhile does not, nor does a close.
+  bool take_host_open();
+
   // Reads what the host wrote into the receive queue (stops while the queue is full).
   void poll_rx();
   // True when received bytes have reached the AVR's UART.
@@ -64,6 +69,8 @@ class PtyLink {
   static constexpr size_t kTxQueueMax = 64 * 1024;
   int master_fd_ = -1;
   int slave_fd_ = -1;
+  int inotify_fd_ = -1;  // opens and closes of the slave
+  int host_opens_ = 0;    // the host's open file descriptions of the slave
   std::string slave_path_;
   std::string link_path_;
   UsbBridge bridge_{LinkModel::kIdeal, link_model_timing(LinkModel::kIdeal), 0, 0};

@@ -53,6 +53,7 @@ std::vector<std::string> summary_lines(const RunFacts &facts, const VirtualBoard
   std::ostringstream uart;
   uart << "uart_in=" << facts.uart_in_bytes << " uart_out=" << facts.uart_out_bytes
        << " uart_dropped=" << facts.uart_dropped << " uart_in_lost=" << facts.uart_in_lost
+
        << " uart_xoff=" << facts.uart_xoff_count << " uart_would_overrun=" << facts.uart_would_overrun
        << " host_bytes=" << facts.host_bytes << " line_dropped=" << facts.line_dropped
        << " line_corrupted=" << facts.line_corrupted << " line_duplicated=" << facts.line_duplicated;
@@ -62,7 +63,7 @@ std::vector<std::string> summary_lines(const RunFacts &facts, const VirtualBoard
       << " wall_seconds=" << fixed(facts.wall_seconds, 3) << " sim_mhz="
       << fixed(facts.wall_seconds > 0 ? facts.end_cycle / facts.wall_seconds / 1e6 : 0, 2)
       << " pacing=" << (facts.pacing ? "on" : "off") << " clock_ppm=" << facts.clock_ppm
-      << " link_model=" << facts.link_model
+      << " link_model=" << facts.link_model << " host_resets=" << facts.host_resets
       << " pacing_lag_max_us=" << facts.lag_max_ns / 1000
       << " pacing_lag_max_cycle=" << facts.lag_max_cycle << " pacing_slipped_us=" << facts.slipped_ns / 1000;
   lines.push_back(run.str());

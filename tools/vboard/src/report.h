@@ -28,6 +28,7 @@ struct RunFacts {
   uint64_t slipped_ns = 0;
   uint64_t uart_in_bytes = 0;
   uint64_t uart_in_lost = 0;
+  uint64_t host_resets = 0;  // resets by the host's open of the pty
   uint64_t uart_xoff_count = 0;
   uint64_t uart_would_overrun = 0;
   uint64_t uart_out_bytes = 0;

@@ -108,6 +108,13 @@ void TraceWriter::frame_end(uint64_t cycle) {
   end_row();
 }
 
+void TraceWriter::reset(uint64_t cycle) {
+  if (!file_) return;
+  row_prefix("reset", 0, cycle, false);
+  put_char(',');
+  end_row();
+}
+
 void TraceWriter::reply(uint64_t cycle, uint64_t bytes) {
   if (!file_) return;
   row_prefix("reply", 0, cycle, false);
