@@ -37,7 +37,7 @@ void setup() {
 }
 
 // Main loop: take received bytes into the frame decoder, watchdog and late replies (poll),
-// a missed compare. Bytes are taken one by one, and once a frame has begun the loop waits for
+// the drivers' idle power-down (drivers::poll), a missed compare. Bytes are taken one by one, and once a frame has begun the loop waits for
 // each of its bytes as it arrives (a byte every 160 cycles; the receive ISR takes about 75 of
 // them for a lone byte, decoding one about 85), so a frame's delimiter is handled right after its receive ISR:
 // taken in batches between passes, a frame's last four bytes and a pass came first, about 600
@@ -56,5 +56,6 @@ void loop() {
   deferred_passes = 0;
   deferred_bytes = 0;
   g_commands.poll();
+  drivers::poll();
   take_bytes(0);
 }
