@@ -161,8 +161,16 @@ uint8_t act(uint8_t m, uint8_t action) {
     }
     return sc::kErrNone;
   }
+  // Silence first, and wait until the motors are silent: a sounding motor takes the command at
+  // a visit or at its next edge (within cfg::kVisitMarginTicks, 256 us), which still sounds.
+  uint8_t silencing = 0;
   for (uint8_t i = 0; i < kMotors; ++i)
-    if (i == m || (action == sc::kActDisable && same_enable(i, m))) sched::set_period(i, sc::kPeriodSilent);
+    if (i == m || (action == sc::kActDisable && same_enable(i, m))) {
+      sched::set_period(i, sc::kPeriodSilent);
+      silencing |= (uint8_t)(1u << i);
+    }
+  while (sched::sounding() & silencing) {
+  }
   if (action == sc::kActSleep) {
     d.sleep(true);
     p.flags |= drv::kAsleep;
