@@ -103,7 +103,7 @@ uint64_t lost_steps(const tr::Trace &t, int motor) {
 
 }  // namespace
 
-TEST_CASE("driver: uno idle sleep - SLEEP low idle_ms after the last step; a live note wakes it and steps wake_us later",
+TEST_CASE("driver: uno idle sleep - SLEEP low idle_ms after the last step - a live note wakes it, steps wake_us later",
           "[driver]") {
   DriverRig r("driver-idle-sleep", {"--sleep-pin", "1=14", "--wake-us", "1000"});
   r.configure({1, 14, sc::kPinNone, sc::kIdleSleep, 50, 1000});
@@ -230,7 +230,7 @@ TEST_CASE("driver: uno idle disable - the shared ENABLE goes off once every moto
   for (int m = 0; m < 4; ++m) CHECK(lost_steps(t, m) == 0);
 }
 
-TEST_CASE("driver: uno acts - sleep stops the note and lowers SLEEP, wake raises it, reset pulses RESET; each note "
+TEST_CASE("driver: uno acts - sleep stops the note and lowers SLEEP, wake raises it, reset pulses RESET - each note "
           "after steps wake_us later",
           "[driver]") {
   DriverRig r("driver-act", {"--sleep-pin", "2=15", "--reset-pin", "2=16"});
