@@ -197,10 +197,12 @@ uint32_t entry_time(uint8_t m, uint32_t period_q8, uint32_t at) {
   return at;
 }
 
-void poll() {
-  const uint32_t now = sched::now();
-  if ((int32_t)(now - g_next_poll) < 0) return;
-  g_next_poll = now + cfg::kDriverPollTicks;
+}  // namespace drivers
+
+namespace {
+// Called from: drivers::poll, once a millisecond (out of line: the pass that only reads the
+// clock saves no registers). Powers down the drivers whose motors have been idle long enough.
+__attribute__((noinline)) void check_idle(uint32_t now) {
   const uint8_t sounding = sched::sounding();
   bool all_idle = true, any_disable = false;  // a shared ENABLE: every motor idle, one asks disable
   for (uint8_t m = 0; m < kMotors; ++m) {
@@ -222,6 +224,16 @@ void poll() {
     }
   }
   if (board::active::kSharedEnable && all_idle && any_disable) disable_group(0);
+}
+}  // namespace
+
+namespace drivers {
+
+void poll() {
+  const uint32_t now = sched::now();
+  if ((int32_t)(now - g_next_poll) < 0) return;
+  g_next_poll = now + cfg::kDriverPollTicks;
+  check_idle(now);
 }
 
 void disable_all() {
