@@ -82,11 +82,21 @@ inline void hold(Power &p, uint32_t at) {
   p.flags = (uint8_t)((p.flags | kHeld) & ~kIdle);
 }
 
+// True while a queued timed note holds the driver (its time is still to come at `now`); a hold
+// whose time came is dropped. Called from: idle_due, drivers::poll (for a powered-down driver).
+inline bool held(Power &p, uint32_t now) {
+  if (!(p.flags & kHeld)) return false;
+  if ((int32_t)(now - p.quiet_since) < 0) return true;
+  p.flags &= (uint8_t)~kHeld;
+  return false;
+}
+
 // Called from: drivers::poll, once a millisecond, for a driver awake and enabled (`sounding`:
 // the motor's scheduler bit). True when the motor has been silent for its idle time with no
 // timed entry to come, and its idle setting is not none: time to power its driver down. Stays
 // true (kIdle) until the motor plays again.
 inline bool idle_due(Power &p, bool sounding, uint32_t now) {
+  const bool note_to_come = held(p, now);
   if (sounding) {
     p.flags = (uint8_t)((p.flags | kSounded) & ~kIdle);
     return false;
@@ -95,11 +105,7 @@ inline bool idle_due(Power &p, bool sounding, uint32_t now) {
     p.flags &= (uint8_t)~kSounded;
     stir(p, now);
   }
-  if (p.flags & kHeld) {
-    if ((int32_t)(now - p.quiet_since) < 0) return false;
-    p.flags &= (uint8_t)~kHeld;
-  }
-  if (p.idle == sc::kIdleNone) return false;
+  if (note_to_come || p.idle == sc::kIdleNone) return false;
   if (!(p.flags & kIdle) && (int32_t)(now - p.quiet_since) < (int32_t)p.idle_ticks) return false;
   p.flags |= kIdle;
   return true;

@@ -208,7 +208,7 @@ __attribute__((noinline)) void check_idle(uint32_t now) {
   for (uint8_t m = 0; m < kMotors; ++m) {
     drv::Power &p = g_power[m];
     if (down(m)) {
-      if (p.flags & drv::kHeld) wake(m);  // a queued note needs it (after a sleep or disable act)
+      if (drv::held(p, now)) wake(m);  // a queued note needs it (after a sleep or disable act)
       continue;
     }
     const bool due = drv::idle_due(p, sounding & (1u << m), now);

@@ -74,6 +74,17 @@ TEST_CASE("driver: a queued note holds the driver awake until its time", "[drive
   CHECK(drv::idle_due(q, false, 411 * kMs));
 }
 
+TEST_CASE("driver: a hold whose time came is dropped, even while the motor sounds", "[driver]") {
+  drv::Power p = power(sc::kIdleSleep, 10, 1000, 0);
+  drv::hold(p, 50 * kMs);
+  CHECK(drv::held(p, 49 * kMs));
+  CHECK_FALSE(drv::idle_due(p, true, 60 * kMs));  // the note sounds: its hold is over
+  CHECK((p.flags & drv::kHeld) == 0);
+  CHECK_FALSE(drv::held(p, 61 * kMs));
+  drv::hold(p, 100 * kMs);
+  CHECK_FALSE(drv::held(p, 100 * kMs));
+}
+
 TEST_CASE("driver: a woken driver is waking for wake_us - a driver without a wake time is ready at once", "[driver]") {
   drv::Power p = power(sc::kIdleSleep, 100, 1700, 0);
   p.flags |= drv::kAsleep | drv::kIdle;
