@@ -81,6 +81,8 @@ enum MsgType : uint8_t {
   kMsgAt = 0x07,          // u32 board time, then 1-13 set-period entries: play them at that time
   kMsgWatchdog = 0x08,    // u16 timeout in ms (0 = never): silence after that long without a frame
   kMsgResetCounters = 0x09,  // (empty): zero the status counters
+  kMsgDriver = 0x0A,      // DriverBody: one driver's SLEEP and RESET pins and its idle power-down
+  kMsgDriverAct = 0x0B,   // DriverActBody: wake, sleep, disable or reset one driver now
   // board -> host
   kMsgCaps = 0x41,        // CapsBody + board name (ASCII, rest of payload)
   kMsgStatus = 0x42,      // StatusHead + one StatusMotor per motor
@@ -134,6 +136,28 @@ inline const char *error_name(uint8_t code) {
 // Drivers the StepDriver code knows (ConfigBody::driver).
 enum DriverType : uint8_t { kDriverA4988 = 0, kDriverDrv8825 = 1, kDriverTb6600 = 2 };
 
+// A driver's power-down when its motor has been silent for DriverBody::idle_ms.
+enum DriverIdle : uint8_t {
+  kIdleNone = 0,     // stays energized (holding torque; the driver and motor stay warm)
+  kIdleSleep = 1,    // SLEEP low (needs a SLEEP pin)
+  kIdleDisable = 2,  // ENABLE off; a shared ENABLE only once every motor on it is idle
+};
+
+// What kMsgDriverAct does to one driver (DriverActBody::action).
+enum DriverAction : uint8_t {
+  kActWake = 0,     // SLEEP high and ENABLE on; steps wait the wake time
+  kActSleep = 1,    // silence the motor, SLEEP low (needs a SLEEP pin)
+  kActDisable = 2,  // silence the motor (every motor on a shared ENABLE), ENABLE off
+  kActReset = 3,    // silence the motor, pulse RESET low (needs a RESET pin), then the wake time
+};
+
+// Longest driver wake-up time a board takes (us; DriverBody::wake_us): the A4988 asks 1,000 us
+// after SLEEP goes high, the DRV8825 1,700 us. A timed entry is taken 3 ms before its time
+// (the firmware's cfg::kTakeTicks), so a driver woken then is awake by the entry's time.
+static const uint16_t kWakeUsMax = 2500;
+// Pin number meaning "not wired" (DriverBody::sleep_pin, reset_pin).
+static const int8_t kPinNone = -1;
+
 // Endstop wiring per motor, as reported in CapsBody::endstops[m].
 static const uint8_t kEndstopMin = 0x01;     // a switch at the low end of travel
 static const uint8_t kEndstopMax = 0x02;     // a switch at the high end of travel
@@ -154,6 +178,26 @@ struct __attribute__((packed)) ConfigBody {
   uint32_t start_period_q8;  // onset ramp starts at this period; 0 = no ramp
   uint32_t accel_q8;         // onset ramp: period shrinks by this much per step (ticks q8)
   uint8_t pulse_us;          // STEP high time, microseconds (2-10)
+};
+
+// kMsgDriver: pins are Arduino pin numbers of the board (D0 = 0, A0 = 14 on the Uno, 54 on the
+// Mega), kPinNone when not wired. The board refuses (kErrConfig) a pin it does not have, the
+// UART's pins 0 and 1, a pin any motor's STEP, DIR, ENABLE, switch or microstep select uses, a
+// pin another driver's SLEEP or RESET uses, the same pin for SLEEP and RESET, idle above
+// kIdleDisable, kIdleSleep without a SLEEP pin, and wake_us above kWakeUsMax.
+struct __attribute__((packed)) DriverBody {
+  uint8_t motor;
+  int8_t sleep_pin;          // the driver's SLEEP input (low = asleep)
+  int8_t reset_pin;          // the driver's RESET input (low = in reset)
+  uint8_t idle;              // DriverIdle
+  uint16_t idle_ms;          // silence before the idle power-down, ms
+  uint16_t wake_us;          // the driver's wake-up time, us: no STEP edge sooner after a wake
+};
+
+// kMsgDriverAct.
+struct __attribute__((packed)) DriverActBody {
+  uint8_t motor;
+  uint8_t action;            // DriverAction
 };
 
 struct __attribute__((packed)) CapsBody {
@@ -187,6 +231,7 @@ static const uint8_t kMotorSounding = 0x02;
 static const uint8_t kMotorEndstopFault = 0x04;
 
 static_assert(sizeof(ConfigBody) + 1 <= kMaxPayload, "config fits a frame");
+static_assert(sizeof(DriverBody) == 8 && sizeof(DriverActBody) == 2, "driver bodies as PROTOCOL.md shows them");
 static_assert(sizeof(StatusHead) + 1 + 5 * sizeof(StatusMotor) <= kMaxPayload, "status fits");
 
 // ---------------------------------------------------------------------------------------------
@@ -243,6 +288,42 @@ inline bool get_entry(const uint8_t *p, PeriodEntry *out) {
   out->motor = (uint8_t)((p[0] >> 4) & 7u);
   out->period_q8 = ((uint32_t)(p[0] & 0x0Fu) << 24) | ((uint32_t)p[3] << 16) |
                    ((uint32_t)p[2] << 8) | p[1];
+  return true;
+}
+
+// kMsgDriver and kMsgDriverAct payloads, type byte included, field by field (the one encoder
+// and parser of both ends). put_* write 1 + sizeof body bytes and return that count; get_*
+// read a payload of len bytes (type byte included) and return false when len does not fit.
+inline uint8_t put_driver(uint8_t *p, const DriverBody &b) {
+  p[0] = kMsgDriver;
+  p[1] = b.motor;
+  p[2] = (uint8_t)b.sleep_pin;
+  p[3] = (uint8_t)b.reset_pin;
+  p[4] = b.idle;
+  put_u16(p + 5, b.idle_ms);
+  put_u16(p + 7, b.wake_us);
+  return 1 + sizeof(DriverBody);
+}
+inline bool get_driver(const uint8_t *p, uint8_t len, DriverBody *out) {
+  if (len != 1 + sizeof(DriverBody)) return false;
+  out->motor = p[1];
+  out->sleep_pin = (int8_t)p[2];
+  out->reset_pin = (int8_t)p[3];
+  out->idle = p[4];
+  out->idle_ms = get_u16(p + 5);
+  out->wake_us = get_u16(p + 7);
+  return true;
+}
+inline uint8_t put_driver_act(uint8_t *p, const DriverActBody &b) {
+  p[0] = kMsgDriverAct;
+  p[1] = b.motor;
+  p[2] = b.action;
+  return 1 + sizeof(DriverActBody);
+}
+inline bool get_driver_act(const uint8_t *p, uint8_t len, DriverActBody *out) {
+  if (len != 1 + sizeof(DriverActBody)) return false;
+  out->motor = p[1];
+  out->action = p[2];
   return true;
 }
 

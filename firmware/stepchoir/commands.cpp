@@ -99,6 +99,23 @@ uint8_t Commands::handle_config(const uint8_t *p, uint8_t len) {
   return kErrNone;
 }
 
+// kMsgDriver (p: the whole payload): length and motor here, the values against the board in
+// hal::configure_driver.
+uint8_t Commands::handle_driver(const uint8_t *p, uint8_t len) {
+  DriverBody b;
+  if (!get_driver(p, len, &b)) return kErrLength;
+  if (b.motor >= hal::motor_count()) return kErrMotor;
+  return hal::configure_driver(b);
+}
+
+// kMsgDriverAct (p: the whole payload).
+uint8_t Commands::handle_driver_act(const uint8_t *p, uint8_t len) {
+  DriverActBody b;
+  if (!get_driver_act(p, len, &b)) return kErrLength;
+  if (b.motor >= hal::motor_count()) return kErrMotor;
+  return hal::driver_act(b.motor, b.action);
+}
+
 uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
   const uint8_t type = p[0];
   uint8_t rc = kErrNone;
@@ -137,6 +154,12 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
         if (n != 2) { rc = kErrLength; break; }
         if (get_u16(body) != 0 && get_u16(body) < kWatchdogMinMs) { rc = kErrConfig; break; }
         watchdog_ticks_ = ms_to_ticks(get_u16(body), F_CPU);
+        break;
+      case kMsgDriver:
+        rc = handle_driver(p, len);
+        break;
+      case kMsgDriverAct:
+        rc = handle_driver_act(p, len);
         break;
       case kMsgResetCounters:
         if (n != 0) { rc = kErrLength; break; }

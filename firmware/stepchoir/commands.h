@@ -57,6 +57,8 @@ class Commands {
   uint8_t handle_periods(const uint8_t *p, uint8_t len);
   uint8_t handle_at(const uint8_t *p, uint8_t len);
   uint8_t handle_config(const uint8_t *p, uint8_t len);
+  uint8_t handle_driver(const uint8_t *p, uint8_t len);
+  uint8_t handle_driver_act(const uint8_t *p, uint8_t len);
   uint8_t check_entry(const sc::PeriodEntry &e) const;
   void reply_caps();
   void reply_status();

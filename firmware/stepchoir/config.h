@@ -72,6 +72,11 @@ static const uint16_t kVisitMarginTicks = 4096;
 // soonest this long after the command was taken): more than kArmGuardTicks plus the arming.
 static const uint16_t kStartLeadTicks = 288;
 
+// The main loop checks the motors' silence for their drivers' idle power-down this often
+// (ticks; 1 ms): a driver powers down at most this long after its idle time. Between checks a
+// pass costs a clock read and a compare (about 100 cycles, 14 of them with interrupts off).
+static const uint16_t kDriverPollTicks = 16000;
+
 // An endstop that fired stays ignored until it has read "released" at every step for this long
 // (ticks): switch chatter after a reversal gives no second reversal. 20 ms.
 static const uint32_t kRearmTicks = 320000ul;
@@ -98,6 +103,8 @@ static_assert(kStartLeadTicks >= kArmGuardTicks + 224, "arm() (about 200 cycles)
 static_assert(kStartLeadTicks >= kPulseUsMax * 16u, "a note that turns DIR waits the set-up time of every supported driver");
 static_assert(kPulseUsMax * 16u < 256u, "pulse_ticks fits a byte");
 static_assert(kTakeTicks >= 4 * kVisitMarginTicks, "a timed entry is taken well before its motor's edges near its time");
+static_assert((uint32_t)sc::kWakeUsMax * (F_CPU / 1000000ul) + kStartLeadTicks <= kTakeTicks,
+              "a driver woken when its timed entry is taken is awake by the entry's time");
 static_assert(kQueueSize >= 4 && kQueueSize <= 64, "kQueueSize: 4-64");
 static_assert((kRxRingBytes & (kRxRingBytes - 1)) == 0, "kRxRingBytes: power of two");
 static_assert((kTxRingBytes & (kTxRingBytes - 1)) == 0, "kTxRingBytes: power of two");

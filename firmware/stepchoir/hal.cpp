@@ -4,8 +4,6 @@
 // Called from: the command layer (commands.cpp), in the main loop only.
 #include "hal.h"
 
-#include <util/delay.h>
-
 #include "boards/board.h"
 #include "link.h"
 #include "scheduler.h"
@@ -29,16 +27,17 @@ uint8_t endstops(uint8_t m) {
 uint32_t now_ticks() { return sched::now(); }
 
 void set_period(uint8_t m, uint32_t period_q8) {
-  // A driver just woken gets 5 us before DIR moves (a TB6600 wants ENA that long before DIR).
-  if (period_q8 != sc::kPeriodSilent && drivers::enable_for(m)) _delay_us(6);
-  sched::set_period(m, period_q8);
+  // A driver woken for this note, or still waking, may step only from its ready time on: the
+  // note starts then, exactly (a timed start), and so does a change made meanwhile.
+  uint32_t ready;
+  if (period_q8 != sc::kPeriodSilent && drivers::ready_time(m, &ready)) sched::set_period_at(m, period_q8, ready);
+  else sched::set_period(m, period_q8);
 }
 
 uint8_t queue_used() { return sched::queue_used(); }
 
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
-  if (period_q8 != sc::kPeriodSilent) drivers::enable_for(m);
-  sched::queue_at(m, period_q8, at_ticks);
+  sched::queue_at(m, period_q8, drivers::entry_time(m, period_q8, at_ticks));
 }
 
 uint8_t late_entries(uint8_t *motor) {
@@ -53,6 +52,10 @@ void stop_all() {
 }
 
 uint8_t configure(const sc::ConfigBody &c) { return drivers::configure(c); }
+
+uint8_t configure_driver(const sc::DriverBody &b) { return drivers::configure_power(b); }
+
+uint8_t driver_act(uint8_t m, uint8_t action) { return drivers::act(m, action); }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) { sched::motor_status(m, out); }
 

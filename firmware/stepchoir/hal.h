@@ -24,14 +24,16 @@ const char *board_name();
 uint32_t now_ticks();
 
 // Plays motor m at period_q8 (CPU ticks, 8 fractional bits; 0 = silence) from now on, keeping
-// the phase of a sounding motor. The caller has checked the range.
+// the phase of a sounding motor. The caller has checked the range. A driver powered down is
+// woken: the note then starts exactly its wake time later.
 void set_period(uint8_t m, uint32_t period_q8);
 
 // The queue of timestamped entries (kMsgAt), cfg::kQueueSize of them, emptied by the main loop
 // (sched::poll, cfg::kTakeTicks before each entry's time): motor m takes period_q8 exactly at
 // board time at_ticks (a silent motor's first edge
 // falls on it, a sounding one strikes on it). Entries must come in time order; queue_at only
-// when queue_used() < cfg::kQueueSize. stop_all() empties it.
+// when queue_used() < cfg::kQueueSize. stop_all() empties it. A note's driver is woken when
+// it is queued; an entry due before the driver is awake plays then.
 uint8_t queue_used();
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
 // Entries taken after their time (made at once), counted from power-up (wrapping),
@@ -44,6 +46,14 @@ void stop_all();
 // Applies a motor configuration (validated by the caller except for driver-specific modes).
 // Returns sc::kErrNone or sc::kErrConfig.
 uint8_t configure(const sc::ConfigBody &c);
+
+// kMsgDriver (b.motor checked): motor b.motor's SLEEP and RESET pins, idle power-down and
+// wake time. Returns sc::kErrNone or sc::kErrConfig (a value the board cannot take).
+uint8_t configure_driver(const sc::DriverBody &b);
+
+// kMsgDriverAct (m checked): sc::DriverAction on motor m's driver now. Returns sc::kErrNone or
+// sc::kErrConfig (an unknown action, or one whose pin is not wired).
+uint8_t driver_act(uint8_t m, uint8_t action);
 
 // Fills motor m's status record.
 void motor_status(uint8_t m, sc::StatusMotor *out);

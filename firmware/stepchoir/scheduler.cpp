@@ -421,6 +421,10 @@ void silence_all() {
 
 void set_period(uint8_t m, uint32_t period_q8) { command(m, period_q8, false, 0); }
 
+void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) { command(m, period_q8, true, at_ticks); }
+
+uint8_t sounding() { return g_sounding; }
+
 uint8_t queue_used() { return g_queue.used; }
 
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {

@@ -74,6 +74,14 @@ void silence_all();
 // driver.
 void set_period(uint8_t m, uint32_t period_q8);
 
+// Called from: main loop. Motor m takes period_q8 exactly at board time at_ticks, as a timed
+// entry does (a silent motor's first edge falls on it, a sounding one strikes on it); from
+// now on when at_ticks is less than cfg::kStartLeadTicks ahead. The caller woke the driver.
+void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
+
+// Called from: main loop. Bit m set while motor m sounds (its channel belongs to its ISR).
+uint8_t sounding();
+
 // Called from: main loop. The timed queue (timed_queue.h): entries in use, and one more (the
 // caller checked queue_used() < cfg::kQueueSize; entries in time order).
 uint8_t queue_used();

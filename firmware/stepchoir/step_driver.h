@@ -1,6 +1,7 @@
-// step_driver.h: one stepper driver socket (A4988, DRV8825, TB6600): pin setup, enable,
-// sleep, reset, microstep mode through M0-M2 where wired, endstops with an active level and
-// a can-go check per direction. The step timing itself lives in scheduler.h.
+// step_driver.h: one stepper driver socket (A4988, DRV8825, TB6600): pin setup, ENABLE, SLEEP,
+// RESET and the microstep mode through M0-M2 where wired; and the board's set of drivers
+// (drivers::): the idle power-down and the wake before a note (driver_power.h). The step
+// timing itself lives in scheduler.h. Everything here runs in the main loop, never in an ISR.
 #ifndef STEPCHOIR_STEP_DRIVER_H
 #define STEPCHOIR_STEP_DRIVER_H
 
@@ -17,45 +18,58 @@ class StepDriver {
   // Called from: main loop. Driver outputs on or off (the ENABLE pin at its active level).
   void enable(bool on);
 
-  // Called from: main loop. Sleep mode on or off, where SLEEP is wired (1 ms wake-up).
+  // Called from: main loop. SLEEP low (asleep) or high, where wired. Does not wait: the
+  // caller keeps the first STEP edge the wake time after the wake (drivers::).
   void sleep(bool on);
 
-  // Called from: main loop. Pulses RESET where wired: 1 ms low, then 10 ms to settle.
+  // Called from: main loop. Pulses RESET low for 10 us where wired (the main loop waits them).
   void reset();
+
+  // Called from: main loop (kMsgDriver). Uses these SLEEP and RESET pins from now on (outputs,
+  // high: awake, not in reset); a pin given up goes back to an input.
+  void set_power_pins(board::Pin sleep_pin, board::Pin reset_pin);
 
   // Called from: main loop. Selects a microstep mode; false if the driver lacks it.
   bool set_microsteps(uint8_t driver, uint8_t microsteps);
 
-  // Called from: anywhere. True when the switch at the end of travel in `up` direction reads
-  // pressed for the configured active level.
-  bool at_end(bool up) const;
-
-  // Called from: anywhere. The seed's canGo: false when the switch ahead is pressed.
-  bool can_go(bool up) const { return !at_end(up); }
-
-  void set_active_high(bool high) { active_high_ = high; }
   bool enabled() const { return enabled_; }
+  board::Pin sleep_pin() const { return pins_.sleep; }
+  board::Pin reset_pin() const { return pins_.reset; }
 
  private:
   board::MotorPins pins_;
   bool enable_active_low_ = true;
-  bool active_high_ = false;
   bool enabled_ = false;
 };
-
-#endif  // STEPCHOIR_STEP_DRIVER_H
 
 namespace drivers {
 // Called from: setup(). Sets up every socket of the board and the step scheduler.
 void begin();
-// Called from: main loop. Enables motor m's driver (and those sharing its ENABLE pin); true
-// when it was disabled.
-bool enable_for(uint8_t m);
 // Called from: main loop. Applies a motor configuration (microstep pins, switch level, the
 // motor's motion settings); sc::kErrConfig when the driver lacks the microstep mode.
 uint8_t configure(const sc::ConfigBody &c);
-// Called from: main loop. Every driver off (ENABLE at its inactive level).
+// Called from: main loop (kMsgDriver; b.motor checked). SLEEP and RESET pins, idle setting and
+// wake time; sc::kErrConfig when they do not fit the board (drv::check_driver).
+uint8_t configure_power(const sc::DriverBody &b);
+// Called from: main loop (kMsgDriverAct; motor checked). sc::DriverAction now; sc::kErrConfig
+// for an unknown action or one whose pin is not wired.
+uint8_t act(uint8_t m, uint8_t action);
+// Called from: main loop, before motor m plays a live note. Wakes its driver if it is powered
+// down; true while it is still waking, with the time its first edge may come in *ready.
+bool ready_time(uint8_t m, uint32_t *ready);
+// Called from: main loop, before a timed entry of motor m at `at` is queued. Wakes its driver
+// for a note, holds it awake until `at`; returns the time to play the entry at (`at`, or the
+// driver's ready time when later).
+uint32_t entry_time(uint8_t m, uint32_t period_q8, uint32_t at);
+// Called from: main loop, every pass. Once a millisecond: powers down the drivers whose motors
+// have been silent for their idle time. Budget (by instruction count): about 100 cycles a
+// pass (a clock read); the millisecond's check about 100 cycles and 50 a motor, under 2 % of
+// the CPU with five motors.
+void poll();
+// Called from: main loop (stop-all, watchdog). Every driver off (ENABLE at its inactive level).
 void disable_all();
 // Called from: main loop. True when any driver is enabled.
 bool any_enabled();
 }  // namespace drivers
+
+#endif  // STEPCHOIR_STEP_DRIVER_H

@@ -37,14 +37,15 @@ void setup() {
   g_commands.announce();
 }
 
-// Main loop: take received bytes into the frame decoder, watchdog and late replies (poll),
-// a missed compare. Bytes are taken one by one, and once a frame has begun the loop waits for
-// each of its bytes as it arrives (a byte every 160 cycles; the receive ISR takes about 75 of
-// them for a lone byte, decoding one about 85), so a frame's delimiter is handled right after its receive ISR:
-// taken in batches between passes, a frame's last four bytes and a pass came first, about 600
-// cycles (the virtual board's PC trace). The other pieces run between frames, or when a frame
-// stalls (a byte later than cfg::kByteWaitTicks) for at most cfg::kDeferPasses passes and
-// cfg::kDeferBytes bytes in a row.
+// Main loop: take received bytes into the frame decoder, watchdog and late replies (poll), the
+// drivers' idle power-down (drivers::poll), a missed compare. Bytes are taken one by one, and
+// once a frame has begun the loop waits for each of its bytes as it arrives (a byte every 160
+// cycles; the receive ISR takes about 75 of them for a lone byte, decoding one about 85), so a
+// frame's delimiter is handled right after its receive ISR: taken in batches between passes, a
+// frame's last four bytes and a pass came first, about 600 cycles (the virtual board's PC
+// trace). The other pieces run between frames, or when a frame stalls (a byte later than
+// cfg::kByteWaitTicks) for at most cfg::kDeferPasses passes and cfg::kDeferBytes bytes in a
+// row.
 void loop() {
   sched::poll();
   static uint8_t deferred_passes = 0, deferred_bytes = 0;
@@ -57,5 +58,6 @@ void loop() {
   deferred_passes = 0;
   deferred_bytes = 0;
   g_commands.poll();
+  drivers::poll();
   take_bytes(0);
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # cli_smoke.sh: the `stepchoir` command against the real firmware on the virtual board:
-# hello prints the board's capabilities, tone plays the asked frequency, status and panic answer.
+# hello prints the board's capabilities, tone plays the asked frequency, status and panic answer,
+# driver puts a driver to sleep and resets it through the pins a configuration file names.
 # Usage: cli_smoke.sh BIN_DIR SCRATCH_DIR
 set -euo pipefail
 bin=$1
@@ -10,7 +11,8 @@ link="$dir/board.pty"
 trace="$dir/cli.csv"
 rm -f "$link" "$trace"
 
-"$bin/stepchoir-vboard" --board uno --link "$link" --trace "$trace" --quiet > "$dir/vboard.out" &
+"$bin/stepchoir-vboard" --board uno --link "$link" --trace "$trace" --quiet --sleep-pin 0=14 --reset-pin 0=15 \
+  > "$dir/vboard.out" &
 vboard=$!
 trap 'kill $vboard 2>/dev/null || true' EXIT
 for _ in $(seq 100); do [ -e "$link" ] && break; sleep 0.05; done
@@ -34,6 +36,14 @@ if "$bin/stepchoir" tone --port "$link" --motor 9 --hz 440 --seconds 0.1 2>"$dir
 fi
 grep -q "motors 0-3" "$dir/err.txt"
 
+if "$bin/stepchoir" driver --port "$link" --motor 0 sleep 2>"$dir/err.txt"; then
+  echo "driver sleep without a SLEEP pin should fail"; exit 1
+fi
+grep -q "refused sleep: config (no SLEEP or RESET pin" "$dir/err.txt"
+printf '[[boards]]\nport = "%s"\n[[boards.motors]]\nsleep_pin = 14\nreset_pin = 15\n' "$link" > "$dir/rig.toml"
+"$bin/stepchoir" driver --port "$link" --config "$dir/rig.toml" --motor 0 sleep | grep -q "motor 0's driver asleep"
+"$bin/stepchoir" driver --port "$link" --config "$dir/rig.toml" --motor 0 reset | grep -q "motor 0's driver reset"
+
 kill -TERM $vboard
 wait $vboard
 trap - EXIT
@@ -51,5 +61,10 @@ assert not others, "a motor nobody asked for stepped"
 m1 = [l for l in open(sys.argv[1]) if l.startswith('step,1,')]
 assert 100 < len(m1) < 300 * 2.5, f"motor 1 made {len(m1)} steps: panic did not stop its 5 s tone"
 print(f"cli: {len(cycles)} steps at {hz:.4f} Hz")
+levels = lambda kind: [(int(l.split(',')[2]), int(l.split(',')[3])) for l in open(sys.argv[1]) if l.startswith(kind + ',0,')]
+sleeps, resets = levels('sleep'), levels('reset')
+assert [v for _, v in sleeps] == [0, 1], f"SLEEP of motor 0: {sleeps} (asleep, then awake again when reconfigured)"
+assert [v for _, v in resets] == [0, 1] and resets[1][0] - resets[0][0] >= 160, f"RESET of motor 0: {resets}"
+print(f"cli: SLEEP low and high again, RESET low for {(resets[1][0] - resets[0][0]) / 16:.1f} us")
 PY
 echo "cli smoke: passed"

@@ -27,6 +27,14 @@ uint8_t configure(const sc::ConfigBody &c) {
   g_hal.configs.push_back(c);
   return c.microsteps == 32 && c.driver == sc::kDriverA4988 ? sc::kErrConfig : sc::kErrNone;
 }
+uint8_t configure_driver(const sc::DriverBody &b) {
+  g_hal.drivers.push_back(b);
+  return g_hal.driver_rc;
+}
+uint8_t driver_act(uint8_t m, uint8_t action) {
+  g_hal.acts.push_back({m, action});
+  return g_hal.driver_rc;
+}
 void motor_status(uint8_t m, sc::StatusMotor *out) {
   out->position_steps = 100 * m;
   out->flags = g_hal.period[m] ? sc::kMotorSounding : 0;

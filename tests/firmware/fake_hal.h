@@ -23,6 +23,9 @@ struct FakeHal {
   uint8_t late = 0, late_motor = 0;  // what hal::late_entries() reports
   std::vector<Call> calls;
   std::vector<sc::ConfigBody> configs;
+  std::vector<sc::DriverBody> drivers;          // kMsgDriver bodies hal::configure_driver took
+  std::vector<sc::DriverActBody> acts;          // kMsgDriverAct calls
+  uint8_t driver_rc = sc::kErrNone;             // what both return
   std::vector<uint8_t> sent;                   // encoded reply bytes
   std::vector<std::vector<uint8_t>> replies;   // reply payloads
   void reset() { *this = FakeHal(); }

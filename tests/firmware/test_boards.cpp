@@ -1,5 +1,6 @@
-// test_boards.cpp: microstep tables, switch levels, and every board-table pin checked against
-// the Arduino core's own variant table (Debian arduino-core-avr).
+// test_boards.cpp: microstep tables, switch levels, and every board-table pin and every entry of
+// each board's Arduino pin map checked against the Arduino core's own variant table (Debian
+// arduino-core-avr).
 #include <catch2/catch.hpp>
 
 #include <fstream>
@@ -57,11 +58,29 @@ void check_board(const board::MotorPins (&motors)[N], const std::string &variant
   }
 }
 
+// Checks a board's whole Arduino pin map (pin number -> port and bit) against the variant.
+void check_pin_map(const uint8_t *map, uint8_t count, const std::string &variant) {
+  const auto pins = variant_pins(variant);
+  CHECK(count == pins.size());
+  for (int n = 0; n < count; ++n) {
+    const board::Pin p = board::pin_from_map(map, count, static_cast<int8_t>(n));
+    INFO(variant << ": Arduino pin " << n);
+    REQUIRE(pins.count(n));
+    CHECK(p.arduino == n);
+    CHECK(pins.at(n) == std::string(1, p.port) + std::to_string(p.bit));
+  }
+}
+
 }  // namespace
 
 TEST_CASE("board pin tables match the Arduino core's variants") {
   check_board(board::uno_cnc_shield_v3::kMotors, "standard");
   check_board(board::mega_ramps_14::kMotors, "mega");
+}
+
+TEST_CASE("board pin maps (Arduino pin -> port and bit) match the Arduino core's variants") {
+  check_pin_map(board::uno_cnc_shield_v3::kPinMap, board::uno_cnc_shield_v3::kPinCount, "standard");
+  check_pin_map(board::mega_ramps_14::kPinMap, board::mega_ramps_14::kPinCount, "mega");
 }
 
 TEST_CASE("board tables have the motors the shields have") {

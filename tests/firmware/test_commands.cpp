@@ -101,6 +101,20 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
       CHECK(g_hal.calls[0].kind == FakeHal::kQueued);
       CHECK(g_hal.calls[0].at_ticks == v.num("ticks"));
       CHECK(g_hal.calls[0].period_q8 == v.num("period_q8"));
+    } else if (v.kind == "driver") {
+      REQUIRE(g_hal.drivers.size() == 1);
+      const sc::DriverBody &b = g_hal.drivers[0];
+      CHECK(b.motor == v.num("motor"));
+      CHECK(b.sleep_pin == std::stoi(v.str("sleep_pin")));
+      CHECK(b.reset_pin == std::stoi(v.str("reset_pin")));
+      CHECK(b.idle == v.num("idle"));
+      CHECK(b.idle_ms == v.num("idle_ms"));
+      CHECK(b.wake_us == v.num("wake_us"));
+      CHECK(g_hal.replies.empty());
+    } else if (v.kind == "driver-act") {
+      REQUIRE(g_hal.acts.size() == 1);
+      CHECK(g_hal.acts[0].motor == v.num("motor"));
+      CHECK(g_hal.acts[0].action == v.num("action"));
     } else if (v.kind == "heartbeat" || v.kind == "watchdog") {
       CHECK(g_hal.calls.empty());
       CHECK(g_hal.replies.empty());
@@ -322,4 +336,43 @@ TEST_CASE("config is range-checked before it reaches the driver") {
   feed(c, wire(p));
   REQUIRE(g_hal.replies.size() == 1);
   CHECK(g_hal.replies[0][1] == sc::kErrPeriodRange);
+}
+
+TEST_CASE("driver frames: a wrong length or motor is refused before the board sees them - its refusal is answered") {
+  auto &c = fresh();
+  uint8_t p[16];
+  const uint8_t n = sc::put_driver(p, sc::DriverBody{1, 14, -1, sc::kIdleSleep, 100, 1000});
+  std::vector<uint8_t> good(p, p + n);
+  feed(c, wire(good));
+  REQUIRE(g_hal.drivers.size() == 1);
+  CHECK(g_hal.replies.empty());
+  auto longer = good;
+  longer.push_back(0);
+  feed(c, wire(longer));
+  feed(c, wire({good.begin(), good.end() - 1}));
+  auto motor = good;
+  motor[1] = 4;  // a 4-motor board
+  feed(c, wire(motor));
+  feed(c, wire({sc::kMsgDriverAct, 4, sc::kActWake}));
+  feed(c, wire({sc::kMsgDriverAct, 0}));
+  CHECK(g_hal.drivers.size() == 1);
+  CHECK(g_hal.acts.empty());
+  REQUIRE(g_hal.replies.size() == 5);
+  CHECK(g_hal.replies[0][1] == sc::kErrLength);
+  CHECK(g_hal.replies[0][2] == sc::kMsgDriver);
+  CHECK(g_hal.replies[1][1] == sc::kErrLength);
+  CHECK(g_hal.replies[2][1] == sc::kErrMotor);
+  CHECK(g_hal.replies[3][1] == sc::kErrMotor);
+  CHECK(g_hal.replies[3][2] == sc::kMsgDriverAct);
+  CHECK(g_hal.replies[4][1] == sc::kErrLength);
+  // the board's own refusal (a pin it lacks, say) is answered and counted as a bad frame
+  g_hal.driver_rc = sc::kErrConfig;
+  const uint16_t bad = c.frames_bad();
+  feed(c, wire(good));
+  feed(c, wire({sc::kMsgDriverAct, 0, sc::kActReset}));
+  REQUIRE(g_hal.replies.size() == 7);
+  CHECK(g_hal.replies[5][1] == sc::kErrConfig);
+  CHECK(g_hal.replies[6][1] == sc::kErrConfig);
+  CHECK(g_hal.replies[6][2] == sc::kMsgDriverAct);
+  CHECK(c.frames_bad() == bad + 2);
 }

@@ -58,6 +58,12 @@ TEST_CASE("config: the commented board example, uncommented, gives the default m
   CHECK(m.music.highest_note == MotorConfig{}.highest_note);
   CHECK(m.music.muted.none());
   CHECK(m.mono_channel == 0);
+  const sc::DriverBody p = default_motor_power(0, sc::kDriverA4988);
+  CHECK(m.power.sleep_pin == p.sleep_pin);
+  CHECK(m.power.reset_pin == p.reset_pin);
+  CHECK(m.power.idle == p.idle);
+  CHECK(m.power.idle_ms == p.idle_ms);
+  CHECK(m.power.wake_us == p.wake_us);
 }
 
 TEST_CASE("config: every key is read", "[config]") {
@@ -83,8 +89,14 @@ transpose = -12
 tuning_cents = 3.5
 muted = [40, 52]
 mono_channel = 3
+sleep_pin = 14
+reset_pin = 15
+idle = "sleep"
+idle_ms = 250
+wake_us = 20
 [[boards.motors]]
 driver = "drv8825"
+idle = "disable"
 [[boards]]
 port = "/dev/ttyACM2"
 )",
@@ -114,6 +126,34 @@ port = "/dev/ttyACM2"
   CHECK(c.boards[0].motors[1].mono_channel == 0);
   CHECK(c.boards[0].motors[1].hardware.motor == 1);
   CHECK(c.boards[0].motors[1].hardware.driver == sc::kDriverDrv8825);
+  CHECK(m.power.motor == 0);
+  CHECK(m.power.sleep_pin == 14);
+  CHECK(m.power.reset_pin == 15);
+  CHECK(m.power.idle == sc::kIdleSleep);
+  CHECK(m.power.idle_ms == 250);
+  CHECK(m.power.wake_us == 20);
+  const sc::DriverBody &p1 = c.boards[0].motors[1].power;
+  CHECK(p1.motor == 1);
+  CHECK(p1.idle == sc::kIdleDisable);
+  CHECK(p1.sleep_pin == sc::kPinNone);
+  CHECK(p1.wake_us == 1700);  // the DRV8825's wake-up time by default
+  CHECK(default_motor_power(2, sc::kDriverA4988).wake_us == 1000);
+  CHECK(default_motor_power(2, sc::kDriverTb6600).wake_us == 5);
+}
+
+TEST_CASE("config: driver power mistakes name the file, line and column", "[config]") {
+  const std::string motor = "[[boards]]\n[[boards.motors]]\n";
+  CHECK(error_of(motor + "idle = \"sleep\"\n") ==
+        "f.toml:3:8: idle = \"sleep\" needs sleep_pin, the Arduino pin wired to the driver's SLEEP");
+  CHECK(error_of(motor + "idle = \"off\"\n") == "f.toml:3:8: idle 'off': expected none, sleep or disable");
+  CHECK(error_of(motor + "sleep_pin = 1\n") == "f.toml:3:13: sleep_pin = 1: pins 0 and 1 are the board's serial link");
+  CHECK(error_of(motor + "reset_pin = 200\n") == "f.toml:3:13: reset_pin = 200: must be -1 to 127");
+  CHECK(error_of(motor + "sleep_pin = -2\n") == "f.toml:3:13: sleep_pin = -2: must be -1 to 127");
+  CHECK(error_of(motor + "sleep_pin = 14\nreset_pin = 14\n") == "f.toml:4:13: reset_pin: the same pin as sleep_pin");
+  CHECK(error_of(motor + "sleep_pin = \"A0\"\n") == "f.toml:3:13: sleep_pin: expected an integer");
+  CHECK(error_of(motor + "idle_ms = 70000\n") == "f.toml:3:11: idle_ms = 70000: must be 0 to 65535");
+  CHECK(error_of(motor + "wake_us = 2501\n") == "f.toml:3:11: wake_us = 2501: must be 0 to 2500");
+  CHECK(error_of(motor + "sleep_pin = 14\nidle = \"sleep\"\nidle_ms = 0\nwake_us = 2500\n") == "");
 }
 
 TEST_CASE("config: mistakes name the file, line and what is wrong", "[config]") {

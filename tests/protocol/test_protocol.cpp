@@ -69,6 +69,28 @@ TEST_CASE("host encoders produce the spec's payloads") {
       c.accel_q8 = uint32_t(v.num("accel_q8"));
       c.pulse_us = uint8_t(v.num("pulse_us"));
       CHECK(config_payload(c) == v.payload);
+    } else if (v.kind == "driver") {
+      const sc::DriverBody d{uint8_t(v.num("motor")), int8_t(std::stoi(v.str("sleep_pin"))),
+                             int8_t(std::stoi(v.str("reset_pin"))), uint8_t(v.num("idle")),
+                             uint16_t(v.num("idle_ms")), uint16_t(v.num("wake_us"))};
+      CHECK(driver_payload(d) == v.payload);
+      sc::DriverBody back{};
+      REQUIRE(sc::get_driver(v.payload.data(), uint8_t(v.payload.size()), &back));
+      CHECK(back.motor == d.motor);
+      CHECK(back.sleep_pin == d.sleep_pin);
+      CHECK(back.reset_pin == d.reset_pin);
+      CHECK(back.idle == d.idle);
+      CHECK(back.idle_ms == d.idle_ms);
+      CHECK(back.wake_us == d.wake_us);
+      CHECK_FALSE(sc::get_driver(v.payload.data(), uint8_t(v.payload.size() - 1), &back));
+      CHECK_FALSE(sc::get_driver(v.payload.data(), uint8_t(v.payload.size() + 1), &back));
+    } else if (v.kind == "driver-act") {
+      CHECK(driver_act_payload(uint8_t(v.num("motor")), uint8_t(v.num("action"))) == v.payload);
+      sc::DriverActBody back{};
+      REQUIRE(sc::get_driver_act(v.payload.data(), uint8_t(v.payload.size()), &back));
+      CHECK(back.motor == v.num("motor"));
+      CHECK(back.action == v.num("action"));
+      CHECK_FALSE(sc::get_driver_act(v.payload.data(), 2, &back));
     } else if (v.kind == "caps") {
       const Caps c = parse_caps(v.payload.data(), v.payload.size());
       CHECK(c.protocol_version == v.num("version"));

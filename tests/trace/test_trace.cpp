@@ -47,6 +47,9 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
                      "dir,0,2000000,0,3200,\n"
                      "endstop,0,2000100,1,3200,\n"
                      "bounce,0,2000150,0,3200,\n"
+                     "sleep,1,2000200,0,,\n"
+                     "sleep,1,2000250,1,,\n"
+                     "reset,1,2000260,0,,\n"
                      "frame,0,2000300,0,,\n"
                      "frame,0,2000400,0,,\n"
                      "# a free comment\n"
@@ -81,6 +84,14 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
   REQUIRE(t.motor[0].enables.size() == 1);
   CHECK(t.motor[0].enables[0].cycle == 5u);
   CHECK_FALSE(t.motor[0].enables[0].has_position);
+  REQUIRE(t.motor[1].sleeps.size() == 2);
+  CHECK(t.motor[1].sleeps[0].cycle == 2000200u);
+  CHECK(t.motor[1].sleeps[0].value == 0);
+  CHECK(t.motor[1].sleeps[1].value == 1);
+  CHECK_FALSE(t.motor[1].sleeps[1].has_position);
+  REQUIRE(t.motor[1].resets.size() == 1);
+  CHECK(t.motor[1].resets[0].cycle == 2000260u);
+  CHECK(t.motor[0].sleeps.empty());
   CHECK(t.frame_ends == std::vector<uint64_t>{2000300u, 2000400u});
   CHECK(t.has_end);
   CHECK(t.end_cycle == 160000000u);
@@ -141,6 +152,9 @@ TEST_CASE("malformed rows fail with file:line and a reason", "[trace][errors]") 
              Catch::StartsWith("trace.csv:4: step row for motor 1 at cycle 400 is before"));
   CHECK_THAT(parse_error(head + "dir,1,500,1,1,\ndir,1,499,0,1,\n"),
              Catch::StartsWith("trace.csv:4: dir row for motor 1"));
+  CHECK_THAT(parse_error(head + "sleep,2,500,1,,\nsleep,2,499,0,,\n"),
+             Catch::StartsWith("trace.csv:4: sleep row for motor 2"));
+  CHECK_THAT(parse_error(head + "reset,0,5,3,,\n"), Catch::StartsWith("trace.csv:3: bad level '3'"));
   CHECK_THAT(parse_error(head + "frame,0,500,0,,\nframe,0,499,0,,\n"),
              Catch::StartsWith("trace.csv:4: frame row at cycle 499 is before"));
   CHECK_THAT(parse_error(head + "frame,0,x,0,,\n"), Catch::StartsWith("trace.csv:3: bad cycle 'x'"));

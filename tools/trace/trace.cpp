@@ -257,7 +257,9 @@ void Parser::parse_row(std::string_view line) {
   else if (event == "endstop") push_level(m.endstop_changes, c, "endstop", motor);
   else if (event == "bounce") push_level(m.bounces, c, "bounce", motor);
   else if (event == "enable") push_level(m.enables, c, "enable", motor);
-  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce, enable or frame)");
+  else if (event == "sleep") push_level(m.sleeps, c, "sleep", motor);
+  else if (event == "reset") push_level(m.resets, c, "reset", motor);
+  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce, enable, sleep, reset, frame or reply)");
 }
 
 Trace Parser::run(std::string_view text) {

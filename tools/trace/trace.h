@@ -8,6 +8,8 @@
 //   endstop,0,2000100,1,3200,     logical switch change (1 = pressed)
 //   bounce,0,2000150,0,3200,      one chatter toggle (pin level)
 //   enable,0,5,0,,                ENABLE pin change (level)
+//   sleep,0,900,0,,               the driver's SLEEP input (level; 0 = asleep), where wired
+//   reset,0,950,0,,               the driver's RESET input (level; 0 = in reset), where wired
 //   frame,0,2000300,0,,           a host frame's last byte (its delimiter) reached the UART
 //                                 (with stepchoir-vboard --trace-frames; motor and value unused)
 //   reply,0,2000900,0,12,         the USB bridge passed 12 of the board's bytes to the host
@@ -38,7 +40,7 @@ struct Step {
   uint32_t width_cycles = 0;  // how long STEP stayed high
 };
 
-// One change of a level-type signal (DIR, endstop, bounce, ENABLE).
+// One change of a level-type signal (DIR, endstop, bounce, ENABLE, SLEEP, RESET).
 struct LevelChange {
   uint64_t cycle = 0;          // CPU cycle of the change
   uint8_t value = 0;           // new level (0 or 1)
@@ -53,6 +55,8 @@ struct MotorTrace {
   std::vector<LevelChange> endstop_changes;  // logical switch state, 1 = pressed
   std::vector<LevelChange> bounces;          // raw chatter toggles of the switch pin
   std::vector<LevelChange> enables;          // ENABLE pin level
+  std::vector<LevelChange> sleeps;           // SLEEP pin level (1 = awake)
+  std::vector<LevelChange> resets;           // RESET pin level (1 = out of reset)
 };
 
 // A whole trace file.

@@ -4,10 +4,25 @@
 // drives pins through the port registers (fast, usable in the step ISR); the virtual board
 // watches the same port bits in simavr; a host test checks every entry against the Arduino
 // core's own variant table. An Arduino number of -1 means "not wired".
+//
+// Each board table also maps every Arduino pin number to its port and bit (kPinMap, one byte a
+// pin, in flash on the AVR): the pins the host names at run time (kMsgDriver: SLEEP, RESET).
 #ifndef STEPCHOIR_BOARDS_PINS_H
 #define STEPCHOIR_BOARDS_PINS_H
 
 #include <stdint.h>
+
+#if defined(__AVR__)
+#include <avr/pgmspace.h>
+#define SC_FLASH PROGMEM
+#define SC_FLASH_BYTE(p) pgm_read_byte(p)
+#else
+#define SC_FLASH
+#define SC_FLASH_BYTE(p) (*(p))
+#endif
+
+// One kPinMap entry: port letter ('A'..'L') and bit (0..7) in a byte.
+#define SC_PB(port, bit) (uint8_t)((((port) - 'A') << 3) | (bit))
 
 namespace board {
 
@@ -19,6 +34,14 @@ struct Pin {
 };
 
 constexpr Pin kNoPin = {-1, '-', 0};
+
+// Arduino pin `arduino` of a board's pin map (`count` entries, SC_FLASH), or kNoPin when the
+// board has no such pin. Called from: the main loop (kMsgDriver), the virtual board's options.
+inline Pin pin_from_map(const uint8_t *map, uint8_t count, int8_t arduino) {
+  if (arduino < 0 || arduino >= (int)count) return kNoPin;
+  const uint8_t v = SC_FLASH_BYTE(map + arduino);
+  return Pin{arduino, (char)('A' + (v >> 3)), (uint8_t)(v & 7u)};
+}
 
 // Everything one driver socket connects to.
 struct MotorPins {

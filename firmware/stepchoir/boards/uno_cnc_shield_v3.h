@@ -4,7 +4,8 @@
 // (X=D9, Y=D10, Z=D11), wired to both end switches of that axis, so the firmware cannot tell
 // the ends apart by pin: it reverses on the switch and knows the end from its direction.
 // The A socket has no switch; it relies on soft limits. Microstep mode is set with jumpers
-// (M0-M2 are not wired to the Arduino), RESET and SLEEP are tied on the shield.
+// (M0-M2 are not wired to the Arduino). RESET and SLEEP are tied together on the shield; a
+// builder who wires them to free pins names them in a kMsgDriver frame.
 #ifndef STEPCHOIR_BOARD_UNO_CNC_SHIELD_V3_H
 #define STEPCHOIR_BOARD_UNO_CNC_SHIELD_V3_H
 
@@ -22,6 +23,14 @@ constexpr bool kSharedEnable = true;
 constexpr Pin D2 = {2, 'D', 2}, D3 = {3, 'D', 3}, D4 = {4, 'D', 4}, D5 = {5, 'D', 5},
               D6 = {6, 'D', 6}, D7 = {7, 'D', 7}, D8 = {8, 'B', 0}, D9 = {9, 'B', 1},
               D10 = {10, 'B', 2}, D11 = {11, 'B', 3}, D12 = {12, 'B', 4}, D13 = {13, 'B', 5};
+
+// Arduino pin -> port and bit (variant "standard"): D0-D7 PD0-7, D8-D13 PB0-5, A0-A5 (14-19) PC0-5.
+constexpr uint8_t kPinCount = 20;
+constexpr uint8_t kPinMap[kPinCount] SC_FLASH = {
+    SC_PB('D', 0), SC_PB('D', 1), SC_PB('D', 2), SC_PB('D', 3), SC_PB('D', 4), SC_PB('D', 5), SC_PB('D', 6),
+    SC_PB('D', 7), SC_PB('B', 0), SC_PB('B', 1), SC_PB('B', 2), SC_PB('B', 3), SC_PB('B', 4), SC_PB('B', 5),
+    SC_PB('C', 0), SC_PB('C', 1), SC_PB('C', 2), SC_PB('C', 3), SC_PB('C', 4), SC_PB('C', 5),
+};
 
 //                          axis step dir enable  min   max   m0     m1     m2     reset  sleep
 constexpr MotorPins kMotors[kMotorCount] = {

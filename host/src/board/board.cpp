@@ -76,6 +76,18 @@ std::vector<uint8_t> config_payload(const sc::ConfigBody &c) {
   return p;
 }
 
+std::vector<uint8_t> driver_payload(const sc::DriverBody &d) {
+  std::vector<uint8_t> p(1 + sizeof d);
+  sc::put_driver(p.data(), d);
+  return p;
+}
+
+std::vector<uint8_t> driver_act_payload(uint8_t motor, uint8_t action) {
+  std::vector<uint8_t> p(1 + sizeof(sc::DriverActBody));
+  sc::put_driver_act(p.data(), sc::DriverActBody{motor, action});
+  return p;
+}
+
 void Board::send(const std::vector<uint8_t> &payload) {
   const auto f = frame(payload);
   if (!link_->write(f.data(), f.size())) throw std::runtime_error(link_->name() + ": write failed");

@@ -54,6 +54,13 @@ std::vector<uint8_t> watchdog_payload(uint16_t ms);
 // A kMsgConfig payload.
 std::vector<uint8_t> config_payload(const sc::ConfigBody &c);
 
+// A kMsgDriver payload: one driver's SLEEP and RESET pins, idle power-down and wake time.
+std::vector<uint8_t> driver_payload(const sc::DriverBody &d);
+
+// A kMsgDriverAct payload: motor's driver woken, put to sleep, disabled or reset
+// (sc::DriverAction).
+std::vector<uint8_t> driver_act_payload(uint8_t motor, uint8_t action);
+
 // Synchronous session with one board (used by the short commands: hello, tone, panic).
 // Called from: one thread. Blocks on I/O with the given timeouts.
 class Board {

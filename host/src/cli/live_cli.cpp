@@ -119,18 +119,25 @@ void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::str
   }
 }
 
-// Called from: run_live after hello. Sends the configuration of every motor the file lists
-// (up to the board's motor count) and fails when the board refuses one.
+}  // namespace
+
 void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
   for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
     board.send(config_payload(settings.motors[m].hardware));
-    if (const auto err = board.wait_reply(sc::kMsgError, 100))
-      throw std::runtime_error(port + ": the board refused motor " + std::to_string(m) +
-                               "'s configuration: " + sc::error_name((*err)[1]));
+    board.send(driver_payload(settings.motors[m].power));
+    const auto err = board.wait_reply(sc::kMsgError, 100);
+    if (!err) continue;
+    const uint8_t code = (*err)[1];
+    const bool driver = (*err)[2] == sc::kMsgDriver;
+    throw std::runtime_error(
+        port + ": the board refused motor " + std::to_string(m) + "'s " +
+        (driver ? "driver settings (sleep_pin, reset_pin, idle, wake_us)" : "configuration") + ": " +
+        sc::error_name(code) +
+        (code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
+         : driver && code == sc::kErrConfig ? " (a pin the board lacks or uses already?)"
+                                           : ""));
   }
 }
-
-}  // namespace
 
 void print_midi_inputs(const std::string &midi_api) {
   try {

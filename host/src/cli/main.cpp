@@ -1,5 +1,5 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, ports, live, config, gcode,
-// play, render, jam.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, driver, ports, live, config,
+// gcode, play, render, jam.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -94,6 +94,37 @@ int run_tone(stepchoir::Board &board, const stepchoir::Caps &caps, int motor, do
   return 0;
 }
 
+// `stepchoir driver`: one motor's driver woken, put to sleep, disabled or reset (kMsgDriverAct),
+// after the motors' settings from a configuration file (its SLEEP and RESET pins) if given.
+int run_driver(stepchoir::Board &board, const stepchoir::Caps &caps, const std::string &port, int motor,
+               const std::string &action, const std::string &config_path) {
+  if (motor < 0 || motor >= caps.motor_count) {
+    std::fprintf(stderr, "stepchoir driver: --motor %d: the board has motors 0-%d\n", motor, caps.motor_count - 1);
+    return 2;
+  }
+  if (!config_path.empty()) {  // the [[boards]] table of this port, else the file's first
+    const stepchoir::LiveConfig cfg = stepchoir::load_config(config_path);
+    const stepchoir::BoardSettings *settings = cfg.boards.empty() ? nullptr : &cfg.boards[0];
+    for (const auto &b : cfg.boards)
+      if (b.port == port) settings = &b;
+    if (settings) stepchoir::configure_motors(board, caps, *settings, port);
+  }
+  const char *const kActions[] = {"wake", "sleep", "disable", "reset"};
+  const char *const kDone[] = {"awake", "asleep", "disabled", "reset"};
+  uint8_t a = 0;
+  while (action != kActions[a]) ++a;  // the parser allowed only these
+  board.send(stepchoir::driver_act_payload(static_cast<uint8_t>(motor), a));
+  if (auto r = board.wait_reply(sc::kMsgError, 100)) {
+    std::fprintf(stderr, "stepchoir driver: the board refused %s: %s%s\n", action.c_str(), sc::error_name((*r)[1]),
+                 (*r)[1] == sc::kErrConfig ? " (no SLEEP or RESET pin for that motor: --config with sleep_pin or "
+                                             "reset_pin)"
+                                           : "");
+    return 1;
+  }
+  std::printf("%s: motor %d's driver %s\n", port.c_str(), motor, kDone[a]);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -117,6 +148,18 @@ int main(int argc, char **argv) {
   tone->add_option("--motor,-m", motor, "Motor index")->default_val(0);
   tone->add_option("--hz", hz, "Frequency in Hz (steps per second)")->required()->check(CLI::Range(0.0, 40000.0));
   tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+
+  std::string driver_action, driver_config;
+  auto *driver = app.add_subcommand("driver", "Wake, sleep, disable or reset one motor's driver (the board's "
+                                              "watchdog disables every driver 300 ms after the last frame)");
+  driver->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+  driver->add_option("--motor,-m", motor, "Motor index")->default_val(0);
+  driver->add_option("--config,-c", driver_config, "Configure the board's motors from this file first (sleep_pin, "
+                                                   "reset_pin: stepchoir config --print-default)")
+      ->check(CLI::ExistingFile);
+  driver->add_option("action", driver_action, "wake, sleep, disable or reset")
+      ->required()
+      ->check(CLI::IsMember({"wake", "sleep", "disable", "reset"}));
 
   std::string ports_midi_api = "alsa";
   auto *ports = app.add_subcommand("ports", "List serial ports and MIDI inputs");
@@ -198,6 +241,8 @@ int main(int argc, char **argv) {
       print_status(*s);
     } else if (app.got_subcommand(tone)) {
       return run_tone(board, caps, motor, hz, seconds);
+    } else if (app.got_subcommand(driver)) {
+      return run_driver(board, caps, port, motor, driver_action, driver_config);
     }
   } catch (const std::exception &e) {
     std::fprintf(stderr, "stepchoir: %s\n", e.what());

@@ -61,11 +61,36 @@ std::string get_string(const std::string &source, const toml::table &t, const ch
   return *n->value<std::string>();
 }
 
+// Called from: read_motor. The driver power keys of one [[boards.motors]] entry (the board
+// checks the pins against its own: a pin it lacks or uses is refused when live configures it).
+sc::DriverBody read_power(const std::string &source, const toml::table &t, uint8_t index, uint8_t driver) {
+  sc::DriverBody p = default_motor_power(index, driver);
+  for (const char *key : {"sleep_pin", "reset_pin"}) {
+    const int64_t pin = get_int(source, t, key, sc::kPinNone, 127, sc::kPinNone);
+    if (pin == 0 || pin == 1) fail(source, *t.get(key), std::string(key) + " = " + std::to_string(pin) +
+                                                            ": pins 0 and 1 are the board's serial link");
+    (std::string(key) == "sleep_pin" ? p.sleep_pin : p.reset_pin) = static_cast<int8_t>(pin);
+  }
+  if (p.sleep_pin != sc::kPinNone && p.sleep_pin == p.reset_pin)
+    fail(source, *t.get("reset_pin"), "reset_pin: the same pin as sleep_pin");
+  const std::string idle = get_string(source, t, "idle", "none");
+  if (idle == "none") p.idle = sc::kIdleNone;
+  else if (idle == "sleep") p.idle = sc::kIdleSleep;
+  else if (idle == "disable") p.idle = sc::kIdleDisable;
+  else fail(source, *t.get("idle"), "idle '" + idle + "': expected none, sleep or disable");
+  if (p.idle == sc::kIdleSleep && p.sleep_pin == sc::kPinNone)
+    fail(source, *t.get("idle"), "idle = \"sleep\" needs sleep_pin, the Arduino pin wired to the driver's SLEEP");
+  p.idle_ms = static_cast<uint16_t>(get_int(source, t, "idle_ms", 0, 65535, p.idle_ms));
+  p.wake_us = static_cast<uint16_t>(get_int(source, t, "wake_us", 0, sc::kWakeUsMax, p.wake_us));
+  return p;
+}
+
 // Called from: parse_config for each [[boards.motors]] entry.
 MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_t index) {
   known_keys(source, t,
              {"driver", "microsteps", "endstop_active_high", "travel_steps", "pulse_us", "lowest_note", "highest_note",
-              "transpose", "tuning_cents", "muted", "mono_channel"},
+              "transpose", "tuning_cents", "muted", "mono_channel", "sleep_pin", "reset_pin", "idle", "idle_ms",
+              "wake_us"},
              "[[boards.motors]]");
   MotorSettings m;
   m.hardware = default_motor_hardware(index);
@@ -84,6 +109,7 @@ MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_
   m.hardware.travel_steps = static_cast<uint32_t>(get_int(source, t, "travel_steps", 0, sc::kMaxTravelSteps,
                                                           m.hardware.travel_steps));
   m.hardware.pulse_us = static_cast<uint8_t>(get_int(source, t, "pulse_us", 2, 10, m.hardware.pulse_us));
+  m.power = read_power(source, t, index, m.hardware.driver);
   m.music.lowest_note = static_cast<uint8_t>(get_int(source, t, "lowest_note", 0, 127, m.music.lowest_note));
   m.music.highest_note = static_cast<uint8_t>(get_int(source, t, "highest_note", 0, 127, m.music.highest_note));
   if (m.music.lowest_note > m.music.highest_note)
@@ -118,6 +144,17 @@ sc::ConfigBody default_motor_hardware(uint8_t motor) {
   c.accel_q8 = 0;
   c.pulse_us = 2;
   return c;
+}
+
+sc::DriverBody default_motor_power(uint8_t motor, uint8_t driver) {
+  sc::DriverBody p{};
+  p.motor = motor;
+  p.sleep_pin = sc::kPinNone;
+  p.reset_pin = sc::kPinNone;
+  p.idle = sc::kIdleNone;
+  p.idle_ms = 1000;
+  p.wake_us = driver == sc::kDriverDrv8825 ? 1700 : driver == sc::kDriverTb6600 ? 5 : 1000;
+  return p;
 }
 
 Policy parse_policy(const std::string &s) {
@@ -236,6 +273,15 @@ priority = "oldest"
 # muted = []                 # MIDI notes this motor must not play (resonances)
 # mono_channel = 1           # policy mono: the MIDI channel (1-16) this motor follows, in unison
 #                            #   with the other motors of that channel
+# sleep_pin = -1             # Arduino pin wired to the driver's SLEEP input, -1 = none (the CNC
+#                            #   shield and RAMPS tie SLEEP to RESET: wire it to a free pin, A0 = 14)
+# reset_pin = -1             # Arduino pin wired to the driver's RESET input, -1 = none
+# idle = "none"              # when silent for idle_ms: "none" (stays energized, warm, holding),
+#                            #   "sleep" (SLEEP low; needs sleep_pin) or "disable" (ENABLE off; a
+#                            #   shared ENABLE goes off once every motor on it is idle)
+# idle_ms = 1000             # silence before the idle power-down, 0 to 65535 ms
+# wake_us = 1000             # the driver's wake-up time, waited before a woken motor's first
+#                            #   step: 0 to 2500 us (default a4988 1000, drv8825 1700, tb6600 5)
 )";
 }
 

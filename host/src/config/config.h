@@ -18,6 +18,7 @@ namespace stepchoir {
 // and its musical settings (for the allocator; f_cpu_hz comes from the board's hello).
 struct MotorSettings {
   sc::ConfigBody hardware{};  // .motor is filled in by position
+  sc::DriverBody power{};     // SLEEP and RESET pins, idle power-down, wake time (kMsgDriver)
   MotorConfig music;
   int8_t mono_channel = 0;    // policy mono: the MIDI channel (0-15) whose group the motor is in
 };
@@ -40,6 +41,11 @@ struct LiveConfig {
 // travel, the whole period range, no onset ramp, 2 us pulses.
 // Called from: the config loader, tests.
 sc::ConfigBody default_motor_hardware(uint8_t motor);
+
+// Driver power defaults for one motor: no SLEEP or RESET pin, idle none after 1000 ms, and the
+// driver's wake-up time (us): A4988 1000, DRV8825 1700, TB6600 5 (its ENABLE).
+// Called from: the config loader, tests.
+sc::DriverBody default_motor_power(uint8_t motor, uint8_t driver);
 
 // Reads and checks a configuration file. Throws std::runtime_error "PATH:LINE:COLUMN: what is
 // wrong" for a syntax error, an unknown key, a value of the wrong type or out of range.

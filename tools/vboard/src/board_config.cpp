@@ -24,8 +24,16 @@ std::vector<MotorConfig> to_motor_configs(const board::MotorPins (&motors)[N]) {
   std::vector<MotorConfig> configs;
   for (const board::MotorPins &m : motors)
     configs.push_back({m.axis, to_pin_ref(m.step), to_pin_ref(m.dir), to_pin_ref(m.enable),
-                       to_pin_ref(m.min_switch), to_pin_ref(m.max_switch)});
+                       to_pin_ref(m.min_switch), to_pin_ref(m.max_switch), to_pin_ref(m.sleep),
+                       to_pin_ref(m.reset)});
   return configs;
+}
+
+// Converts a board table's Arduino pin map.
+std::vector<PinRef> to_pin_refs(const uint8_t *map, uint8_t count) {
+  std::vector<PinRef> pins;
+  for (int n = 0; n < count; ++n) pins.push_back(to_pin_ref(board::pin_from_map(map, count, static_cast<int8_t>(n))));
+  return pins;
 }
 
 }  // namespace
@@ -47,6 +55,7 @@ bool board_config_for(const std::string &cli_name, BoardConfig &config) {
     config.bootloader_at_power_on = false;
     config.enable_active_low = b::kEnableActiveLow;
     config.motors = to_motor_configs(b::kMotors);
+    config.arduino_pins = to_pin_refs(b::kPinMap, b::kPinCount);
     return true;
   }
   if (cli_name == "mega") {
@@ -62,9 +71,26 @@ bool board_config_for(const std::string &cli_name, BoardConfig &config) {
     config.bootloader_at_power_on = true;
     config.enable_active_low = b::kEnableActiveLow;
     config.motors = to_motor_configs(b::kMotors);
+    config.arduino_pins = to_pin_refs(b::kPinMap, b::kPinCount);
     return true;
   }
   return false;
+}
+
+// Wires a driver's SLEEP or RESET input to an Arduino pin.
+bool wire_driver_pin(BoardConfig &config, int motor, int arduino, bool sleep, std::string &error) {
+  const std::string what = std::string(sleep ? "--sleep-pin " : "--reset-pin ") + std::to_string(motor) + "=" +
+                           std::to_string(arduino) + ": ";
+  if (motor < 0 || motor >= static_cast<int>(config.motors.size())) {
+    error = what + "the " + config.cli_name + " has motors 0-" + std::to_string(config.motors.size() - 1);
+    return false;
+  }
+  if (arduino < 0 || arduino >= static_cast<int>(config.arduino_pins.size())) {
+    error = what + "the " + config.cli_name + " has Arduino pins 0-" + std::to_string(config.arduino_pins.size() - 1);
+    return false;
+  }
+  (sleep ? config.motors[motor].sleep : config.motors[motor].reset) = config.arduino_pins[arduino];
+  return true;
 }
 
 }  // namespace vboard

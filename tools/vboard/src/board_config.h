@@ -20,10 +20,11 @@ struct PinRef {
   }
 };
 
-// The pins of one driver socket the virtual board models.
+// The pins of one driver socket the virtual board models (SLEEP and RESET: the board table's,
+// or an Arduino pin --sleep-pin / --reset-pin names).
 struct MotorConfig {
   char axis;
-  PinRef step, dir, enable, min_switch, max_switch;
+  PinRef step, dir, enable, min_switch, max_switch, sleep, reset;
 };
 
 // One board: MCU, clock and driver sockets.
@@ -35,6 +36,7 @@ struct BoardConfig {
   unsigned vector_count = 0;  // interrupt vectors incl. reset
   bool enable_active_low = true;
   std::vector<MotorConfig> motors;
+  std::vector<PinRef> arduino_pins;  // Arduino pin number -> port and bit (the table's kPinMap)
   // The board's bootloader: how long it holds the board after the host's reset before the
   // firmware starts (ms), and whether it holds it at power-on too.
   double bootloader_ms = 0;
@@ -43,6 +45,10 @@ struct BoardConfig {
 
 // Fills config for "uno" or "mega"; returns false for an unknown name.
 bool board_config_for(const std::string &cli_name, BoardConfig &config);
+
+// Wires motor's driver SLEEP (sleep true) or RESET input to Arduino pin `arduino` of the board
+// (--sleep-pin, --reset-pin); false with error when the board has no such motor or pin.
+bool wire_driver_pin(BoardConfig &config, int motor, int arduino, bool sleep, std::string &error);
 
 }  // namespace vboard
 

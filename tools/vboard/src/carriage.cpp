@@ -19,9 +19,9 @@ Carriage::Carriage(int64_t travel_steps, int64_t start_position_steps)
       overshoot_steps_(beyond_rail_steps(start_position_steps, travel_steps)) {}
 
 // Applies one STEP rising edge; returns true when the carriage moved.
-bool Carriage::step(bool dir_high, bool enabled) {
-  if (!enabled) {
-    ++disabled_steps_;
+bool Carriage::step(bool dir_high, bool driver_ready) {
+  if (!driver_ready) {
+    ++lost_steps_;
     return false;
   }
   position_steps_ += dir_high ? 1 : -1;

@@ -13,9 +13,9 @@ class Carriage {
   // Starts the carriage at start_position_steps on a rail of travel_steps.
   Carriage(int64_t travel_steps, int64_t start_position_steps);
 
-  // Applies one STEP rising edge; moves +1 (dir high) or -1 (dir low) only when enabled.
-  // Returns true when the carriage moved.
-  bool step(bool dir_high, bool enabled);
+  // Applies one STEP rising edge; moves +1 (dir high) or -1 (dir low) only when the driver
+  // takes steps (enabled, awake, out of reset). Returns true when the carriage moved.
+  bool step(bool dir_high, bool driver_ready);
 
   // Current position in steps.
   int64_t position_steps() const { return position_steps_; }
@@ -29,15 +29,15 @@ class Carriage {
   int64_t overshoot_steps() const { return overshoot_steps_; }
   // STEP pulses that moved the carriage.
   uint64_t steps() const { return steps_; }
-  // STEP pulses seen while the driver was disabled (they do not move).
-  uint64_t disabled_steps() const { return disabled_steps_; }
+  // STEP pulses the driver did not take (disabled, asleep or still waking, in reset): lost.
+  uint64_t lost_steps() const { return lost_steps_; }
 
  private:
   int64_t travel_steps_;
   int64_t position_steps_;
   int64_t overshoot_steps_ = 0;
   uint64_t steps_ = 0;
-  uint64_t disabled_steps_ = 0;
+  uint64_t lost_steps_ = 0;
 };
 
 }  // namespace vboard

@@ -215,7 +215,7 @@ void write_trace_preamble(const Options &options, const BoardConfig &board, cons
   trace.comment("elf=" + elf_path + " switch_active=" + (options.switch_active_low ? "low" : "high") +
                 " chatter_us=" + std::to_string(options.chatter_us) +
                 " start_position=" + std::to_string(options.start_position_steps) +
-                " seed=" + std::to_string(options.seed));
+                " seed=" + std::to_string(options.seed) + " wake_us=" + std::to_string(options.wake_us));
   for (const std::string &line : model.initial_lines()) trace.comment(line);
 }
 
@@ -235,12 +235,18 @@ UsbBridge make_bridge(const Options &options) {
 int run(const Options &options, FILE *real_stdout) {
   BoardConfig board;
   board_config_for(options.board, board);
+  std::string error;
+  for (const bool sleep : {true, false})
+    for (const Options::MotorPin &mp : sleep ? options.sleep_pins : options.reset_pins)
+      if (!wire_driver_pin(board, mp.motor, mp.arduino, sleep, error)) {
+        std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+        return 1;
+      }
   const std::string elf_path = options.elf_path.empty() ? default_elf_path(options.board) : options.elf_path;
   if (access(elf_path.c_str(), R_OK) != 0) {
     std::fprintf(stderr, "stepchoir-vboard: firmware %s: %s\n", elf_path.c_str(), std::strerror(errno));
     return 1;
   }
-  std::string error;
 
   TraceWriter trace;
   if (!options.trace_path.empty() && !trace.open(options.trace_path, error)) {
@@ -260,6 +266,7 @@ int run(const Options &options, FILE *real_stdout) {
   settings.chatter_cycles = options.chatter_us * (board.f_cpu_hz / 1000000);
   settings.stuck_switch_motor = options.stuck_switch_motor;
   settings.seed = options.seed;
+  settings.wake_cycles = options.wake_us * (board.f_cpu_hz / 1000000);
   VirtualBoard model(board, settings, trace);
   model.settle_initial_switches();
 

@@ -33,6 +33,17 @@ bool parse_real(const std::string &text, double &value) {
   return true;
 }
 
+// Parses "M=PIN": a motor index 0-7 and an Arduino pin number 0-127.
+bool parse_motor_pin(const std::string &text, Options::MotorPin &out) {
+  const size_t eq = text.find('=');
+  int64_t motor = 0, pin = 0;
+  if (eq == std::string::npos || !parse_int(text.substr(0, eq), motor) || !parse_int(text.substr(eq + 1), pin))
+    return false;
+  if (motor < 0 || motor > 7 || pin < 0 || pin > 127) return false;
+  out = {static_cast<int>(motor), static_cast<int>(pin)};
+  return true;
+}
+
 }  // namespace
 
 // Usage text.
@@ -40,6 +51,7 @@ const char *usage_text() {
   return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
          "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
+         "          [--sleep-pin M=PIN] [--reset-pin M=PIN] [--wake-us N]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
          "          [--link-model ideal|16u2|ftdi|ch340] [--ftdi-latency-ms N]\n"
          "          [--auto-reset | --no-auto-reset] [--no-bootloader]\n"
@@ -56,6 +68,10 @@ const char *usage_text() {
          "  --switch-active L   level of a pressed end switch (default low)\n"
          "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
          "  --stuck-switch M    the switches of motor M read pressed all the time (a fault)\n"
+         "  --sleep-pin M=PIN   motor M's driver SLEEP input is wired to Arduino pin PIN (repeatable)\n"
+         "  --reset-pin M=PIN   motor M's driver RESET input is wired to Arduino pin PIN (repeatable)\n"
+         "  --wake-us N         a driver takes steps N us after its SLEEP rose (default 1000); a step\n"
+         "                      while asleep, waking, disabled or in reset is lost (summary lost_steps)\n"
          "  --seed N            seed for the bounce pattern and line noise (default 1)\n"
          "  --line-drop P       line noise: each host byte is lost with probability P (0-0.5)\n"
          "  --line-corrupt P    ... has one or more bits flipped with probability P\n"
@@ -169,6 +185,22 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         return false;
       }
       options.stuck_switch_motor = static_cast<int>(motor);
+    } else if (arg == "--sleep-pin" || arg == "--reset-pin") {
+      Options::MotorPin mp{};
+      if (!value_of(value)) return false;
+      if (!parse_motor_pin(value, mp)) {
+        error = arg + " needs MOTOR=PIN: a motor index 0-7 and an Arduino pin number";
+        return false;
+      }
+      (arg == "--sleep-pin" ? options.sleep_pins : options.reset_pins).push_back(mp);
+    } else if (arg == "--wake-us") {
+      int64_t wake_us = 0;
+      if (!value_of(value)) return false;
+      if (!parse_int(value, wake_us) || wake_us < 0 || wake_us > 1000000) {
+        error = "--wake-us needs a whole number of microseconds, 0 to 1000000";
+        return false;
+      }
+      options.wake_us = static_cast<uint64_t>(wake_us);
     } else if (arg == "--chatter-us") {
       int64_t chatter_us = 0;
       if (!value_of(value)) return false;

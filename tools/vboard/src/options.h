@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace vboard {
 
@@ -23,6 +24,12 @@ struct Options {
   bool switch_active_low = true;
   uint64_t chatter_us = 0;
   int stuck_switch_motor = -1;  // --stuck-switch M: motor M's switches stay pressed
+  struct MotorPin {
+    int motor;
+    int arduino;
+  };
+  std::vector<MotorPin> sleep_pins, reset_pins;  // --sleep-pin M=PIN, --reset-pin M=PIN
+  uint64_t wake_us = 1000;  // a driver takes steps this long after its SLEEP rose
   uint64_t seed = 1;
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
   std::string link_model = "ideal";  // the USB bridge: ideal | 16u2 | ftdi | ch340

@@ -94,9 +94,18 @@ void TraceWriter::bounce(unsigned motor, uint64_t cycle, bool pin_level, int64_t
 }
 
 // enable row.
-void TraceWriter::enable(unsigned motor, uint64_t cycle, bool level) {
+void TraceWriter::enable(unsigned motor, uint64_t cycle, bool level) { level_row("enable", motor, cycle, level); }
+
+// sleep row.
+void TraceWriter::sleep(unsigned motor, uint64_t cycle, bool level) { level_row("sleep", motor, cycle, level); }
+
+// reset row.
+void TraceWriter::reset(unsigned motor, uint64_t cycle, bool level) { level_row("reset", motor, cycle, level); }
+
+// "name,m,CYCLE,LEVEL,," : a pin level with no position.
+void TraceWriter::level_row(const char *name, unsigned motor, uint64_t cycle, bool level) {
   if (!file_) return;
-  row_prefix("enable", motor, cycle, level);
+  row_prefix(name, motor, cycle, level);
   put_char(',');
   end_row();
 }

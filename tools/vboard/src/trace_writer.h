@@ -42,6 +42,10 @@ class TraceWriter {
   void bounce(unsigned motor, uint64_t cycle, bool pin_level, int64_t position_steps);
   // enable,m,CYCLE,LEVEL,,
   void enable(unsigned motor, uint64_t cycle, bool level);
+  // sleep,m,CYCLE,LEVEL,, : the driver's SLEEP input (low = asleep).
+  void sleep(unsigned motor, uint64_t cycle, bool level);
+  // reset,m,CYCLE,LEVEL,, : the driver's RESET input (low = in reset).
+  void reset(unsigned motor, uint64_t cycle, bool level);
   // frame,0,CYCLE,0,, : a host frame's delimiter reached the UART.
   void frame_end(uint64_t cycle);
   // reply,0,CYCLE,0,BYTES, : the USB bridge passed BYTES of the board's to the host.
@@ -57,6 +61,8 @@ class TraceWriter {
   void close();
 
  private:
+  // Writes "name,motor,cycle,level,," (enable, sleep, reset).
+  void level_row(const char *name, unsigned motor, uint64_t cycle, bool level);
   // Appends "name,motor,cycle,value," (the common row prefix).
   void row_prefix(const char *name, unsigned motor, uint64_t cycle, bool value);
   // Appends a string.

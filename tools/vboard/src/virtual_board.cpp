@@ -40,6 +40,8 @@ VirtualBoard::VirtualBoard(const BoardConfig &board, const ModelSettings &settin
           {m, PinRole::kEnable});
     else
       motors_.back().enable_level = !board.enable_active_low;  // no pin: always enabled
+    if (cfg.sleep.wired) watched_[watched_index_of(watched_, cfg.sleep, true)].users.push_back({m, PinRole::kSleep});
+    if (cfg.reset.wired) watched_[watched_index_of(watched_, cfg.reset, true)].users.push_back({m, PinRole::kReset});
 
     const PinRef ends[2] = {cfg.min_switch, cfg.max_switch};
     for (int end = 0; end < 2; ++end) {
@@ -91,7 +93,25 @@ void VirtualBoard::on_output_pin(size_t watched_index, bool level, uint64_t cycl
         motor.enable_level = level;
         trace_.enable(user.motor, cycle, level);
         break;
+      case PinRole::kSleep:
+      case PinRole::kReset:
+        on_power_pin(user.motor, user.role, level, cycle);
+        break;
     }
+  }
+}
+
+// A SLEEP or RESET pin change: SLEEP rising starts the driver's wake time.
+void VirtualBoard::on_power_pin(unsigned motor_index, PinRole role, bool level, uint64_t cycle) {
+  MotorState &motor = motors_[motor_index];
+  bool &now = role == PinRole::kSleep ? motor.sleep_level : motor.reset_level;
+  if (level == now) return;
+  now = level;
+  if (role == PinRole::kSleep) {
+    if (level) motor.awake_cycle = cycle + settings_.wake_cycles;
+    trace_.sleep(motor_index, cycle, level);
+  } else {
+    trace_.reset(motor_index, cycle, level);
   }
 }
 
@@ -103,8 +123,10 @@ void VirtualBoard::on_step_edge(unsigned motor_index, bool level, uint64_t cycle
   if (level) {
     motor.rise_cycle = cycle;
     motor.rise_dir_level = motor.dir_level;
-    const bool enabled = motor.enable_level != board_.enable_active_low;
-    if (motor.carriage.step(motor.dir_level, enabled)) update_switches_of(motor_index, cycle);
+    // The driver takes the step only enabled, awake for its wake time and out of reset.
+    const bool ready = motor.enable_level != board_.enable_active_low && motor.sleep_level &&
+                       cycle >= motor.awake_cycle && motor.reset_level;
+    if (motor.carriage.step(motor.dir_level, ready)) update_switches_of(motor_index, cycle);
     return;
   }
   const uint64_t high_cycles = cycle - motor.rise_cycle;
@@ -162,6 +184,8 @@ std::vector<std::string> VirtualBoard::initial_lines() const {
          << " position=" << motor.carriage.position_steps() << " dir=" << (motor.dir_level ? 1 : 0)
          << " enable=" << (motor.enable_level ? 1 : 0) << " step=" << pin_name(board_.motors[m].step)
          << " dir_pin=" << pin_name(board_.motors[m].dir);
+    if (board_.motors[m].sleep.wired) text << " sleep_pin=" << pin_name(board_.motors[m].sleep);
+    if (board_.motors[m].reset.wired) text << " reset_pin=" << pin_name(board_.motors[m].reset);
     lines.push_back(text.str());
   }
   for (const SwitchInput &input : switches_) {
@@ -183,7 +207,7 @@ std::vector<std::string> VirtualBoard::summary_lines() const {
     const MotorState &motor = motors_[m];
     std::ostringstream text;
     text << "motor=" << m << " axis=" << board_.motors[m].axis << " steps=" << motor.carriage.steps()
-         << " disabled_steps=" << motor.carriage.disabled_steps()
+         << " lost_steps=" << motor.carriage.lost_steps()
          << " position=" << motor.carriage.position_steps()
          << " overshoot=" << motor.carriage.overshoot_steps()
          << " min_high_cycles=" << (motor.pulses ? motor.min_high_cycles : 0)

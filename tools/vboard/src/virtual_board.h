@@ -33,10 +33,12 @@ struct ModelSettings {
   uint64_t seed = 1;
   // Level an undriven ENABLE pin has (pull-up on the CNC shield: drivers start disabled).
   bool enable_idle_level = true;
+  // A driver takes steps this long after its SLEEP rose (--wake-us; A4988: 1 ms).
+  uint64_t wake_cycles = 16000;
 };
 
 // What an output pin does for one motor.
-enum class PinRole { kStep, kDir, kEnable };
+enum class PinRole { kStep, kDir, kEnable, kSleep, kReset };
 
 // One output pin the simulator must report changes of, with everyone using it.
 struct WatchedPin {
@@ -68,6 +70,9 @@ struct MotorState {
   bool step_level = false;
   bool dir_level = false;
   bool enable_level = true;
+  bool sleep_level = true;        // SLEEP and RESET idle high (pulled up): awake, out of reset
+  bool reset_level = true;
+  uint64_t awake_cycle = 0;       // the driver takes steps from this cycle on (SLEEP rose + wake)
   bool rise_dir_level = false;
   uint64_t rise_cycle = 0;
   uint64_t pulses = 0;
@@ -106,6 +111,8 @@ class VirtualBoard {
  private:
   // A STEP pin edge.
   void on_step_edge(unsigned motor, bool level, uint64_t cycle);
+  // A SLEEP or RESET pin change.
+  void on_power_pin(unsigned motor, PinRole role, bool level, uint64_t cycle);
   // Re-evaluates the switches of motor after it moved.
   void update_switches_of(unsigned motor, uint64_t cycle);
   // Re-evaluates one switch input.

@@ -47,7 +47,7 @@ TEST_CASE("carriage moves only when enabled and records overshoot") {
   CHECK(c.step(true, true));
   CHECK(c.at_max());
   CHECK_FALSE(c.step(true, false));
-  CHECK(c.disabled_steps() == 1);
+  CHECK(c.lost_steps() == 1);
   c.step(true, true);
   c.step(true, true);
   CHECK(c.position_steps() == 12);
@@ -132,6 +132,8 @@ TEST_CASE("trace writer formats header and rows") {
     t.endstop(2, 9, true, 3200);
     t.bounce(2, 10, false, 3200);
     t.enable(3, 0, true);
+    t.sleep(1, 11, false);
+    t.reset(2, 11, true);
     t.frame_end(12);
     t.comment("end cycle=11");
     t.flush();
@@ -144,6 +146,8 @@ TEST_CASE("trace writer formats header and rows") {
         "endstop,2,9,1,3200,\n"
         "bounce,2,10,0,3200,\n"
         "enable,3,0,1,,\n"
+        "sleep,1,11,0,,\n"
+        "reset,2,11,1,,\n"
         "frame,0,12,0,,\n"
         "# end cycle=11\n");
   std::fclose(stream);
@@ -204,7 +208,7 @@ TEST_CASE("virtual board: steps, shared switch, enable and trace rows") {
     model.on_output_pin(step_pin, false, at + 5);
   };
   pulse(10);  // disabled: does not move
-  CHECK(model.motors()[0].carriage.disabled_steps() == 1);
+  CHECK(model.motors()[0].carriage.lost_steps() == 1);
   model.on_output_pin(enable_pin, false, 20);
   model.on_output_pin(dir_pin, true, 30);
   pulse(40);
@@ -227,6 +231,67 @@ TEST_CASE("virtual board: steps, shared switch, enable and trace rows") {
   CHECK(text.find("step,0,50,1,4,5\n") != std::string::npos);
   CHECK(text.find("endstop,0,70,0,3,\n") != std::string::npos);
   CHECK(text.find("endstop,0,100,1,0,\n") != std::string::npos);
+  std::fclose(stream);
+}
+
+TEST_CASE("virtual board: a step while asleep, waking, disabled or in reset is lost") {
+  BoardConfig board;
+  REQUIRE(board_config_for("uno", board));
+  std::string error;
+  REQUIRE(wire_driver_pin(board, 1, 14, true, error));   // motor 1's SLEEP on A0 (PC0)
+  REQUIRE(wire_driver_pin(board, 1, 15, false, error));  // ... its RESET on A1 (PC1)
+  CHECK(board.motors[1].sleep.port == 'C');
+  CHECK(board.motors[1].reset.bit == 1);
+  CHECK_FALSE(wire_driver_pin(board, 4, 14, true, error));
+  CHECK(error == "--sleep-pin 4=14: the uno has motors 0-3");
+  CHECK_FALSE(wire_driver_pin(board, 0, 20, false, error));
+  CHECK(error == "--reset-pin 0=20: the uno has Arduino pins 0-19");
+  FILE *stream = std::tmpfile();
+  TraceWriter trace;
+  trace.attach(stream);
+  ModelSettings settings;
+  settings.wake_cycles = 100;
+  VirtualBoard model(board, settings, trace);
+  size_t step = 0, enable = 0, sleep = 0, reset = 0;
+  for (size_t i = 0; i < model.watched_pins().size(); ++i) {
+    const PinRef &p = model.watched_pins()[i].pin;
+    if (p.same_as(board.motors[1].step)) step = i;
+    if (p.same_as(board.motors[1].enable)) enable = i;
+    if (p.same_as(board.motors[1].sleep)) sleep = i;
+    if (p.same_as(board.motors[1].reset)) reset = i;
+  }
+  REQUIRE(model.watched_pins()[sleep].initial_level);  // pulled up: awake until the firmware says
+  auto pulse = [&](uint64_t at) {
+    model.on_output_pin(step, true, at);
+    model.on_output_pin(step, false, at + 5);
+  };
+  const Carriage &c = model.motors()[1].carriage;
+  model.on_output_pin(enable, false, 10);  // enabled, awake since power-up
+  pulse(20);
+  CHECK(c.steps() == 1);
+  model.on_output_pin(sleep, false, 30);
+  pulse(40);  // asleep
+  model.on_output_pin(sleep, true, 50);
+  pulse(60);   // waking until 150
+  pulse(149);
+  pulse(150);  // awake
+  CHECK(c.steps() == 2);
+  CHECK(c.lost_steps() == 3);
+  model.on_output_pin(reset, false, 200);
+  pulse(210);  // in reset
+  model.on_output_pin(reset, true, 220);
+  pulse(230);
+  model.on_output_pin(enable, true, 240);
+  pulse(250);  // disabled
+  CHECK(c.steps() == 3);
+  CHECK(c.lost_steps() == 5);
+  trace.flush();
+  const std::string text = read_back(stream);
+  CHECK(text.find("sleep,1,30,0,,\nstep,1,40,0,") != std::string::npos);
+  CHECK(text.find("sleep,1,50,1,,\n") != std::string::npos);
+  CHECK(text.find("reset,1,200,0,,\n") != std::string::npos);
+  CHECK(text.find("reset,1,220,1,,\n") != std::string::npos);
+  CHECK(model.summary_lines()[1].find(" lost_steps=5 ") != std::string::npos);
   std::fclose(stream);
 }
 
