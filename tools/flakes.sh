@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # flakes.sh [RUNS] [OUT]: runs every end-to-end test (ctest label e2e) RUNS times (default 20)
-# on the build in build/, one whole pass of the suite at a time, and writes the failures per
+# on the build in build/ (or $STEPCHOIR_BUILD), one whole pass of the suite at a time, and writes the failures per
 # test to OUT (default bench/results/flakes.md) after every pass (tools/flakes_report.py), with
 # the `pacing` label of each and how often the virtual board said the machine stalled it in a
 # failed run. Nothing else should run on the machine meanwhile: the `pacing` tests judge timing
@@ -9,15 +9,16 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-20}
 out=${2:-bench/results/flakes.md}
+build=${STEPCHOIR_BUILD:-build}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 start=$(date -u '+%Y-%m-%d %H:%M UTC')
-(cd build && ctest -N -L pacing | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/pacing.txt"
-(cd build && ctest -N -L e2e | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/all.txt"
+(cd "$build" && ctest -N -L pacing | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/pacing.txt"
+(cd "$build" && ctest -N -L e2e | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/all.txt"
 : > "$tmp/results.txt"
 : > "$tmp/stalls.txt"
 for i in $(seq 1 "$runs"); do
-  (cd build && ctest -L e2e --output-on-failure > "$tmp/run-$i.log" 2>&1) || true
+  (cd "$build" && ctest -L e2e --output-on-failure > "$tmp/run-$i.log" 2>&1) || true
   # "N/M Test #K: NAME .....   Passed    1.23 sec" or "***Failed"
   sed -n 's/^ *[0-9]*\/[0-9]* Test *#[0-9]*: \(.*[^ .]\) *\.\.*[ *]*\(Passed\|Failed\|Timeout\|Exception\).*/\2 \1/p' \
     "$tmp/run-$i.log" >> "$tmp/results.txt"

@@ -123,11 +123,11 @@ TEST_CASE("link: opening the port resets an Uno or a Mega, and the host waits ou
       REQUIRE(vb.stop() == 0);
     }
     const tr::Trace t = tr::read_trace(trace_path);
-    REQUIRE(t.resets.size() == 1);
+    REQUIRE(t.mcu_resets.size() == 1);
     // Nothing the host sent reached the UART before the firmware said it was there: the first
     // frame is the clock request, after the capabilities (the first pass of bytes to the host).
     REQUIRE(!t.replies.empty());
-    const double boot_ms = double(t.replies.front().cycle - t.resets.front()) * 1e3 / t.f_cpu_hz;
+    const double boot_ms = double(t.replies.front().cycle - t.mcu_resets.front()) * 1e3 / t.f_cpu_hz;
     INFO("capabilities reached the host " << boot_ms << " ms after the reset");
     CHECK(boot_ms > (board == "uno" ? 1375.0 : 833.0));
     CHECK(boot_ms < (board == "uno" ? 1375.0 : 833.0) + 10.0);  // the firmware's start, a 16U2 batch

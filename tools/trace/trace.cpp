@@ -214,8 +214,8 @@ void Parser::parse_row(std::string_view line) {
     trace_.frame_ends.push_back(ordered_cycle(trace_.frame_ends.empty() ? 0 : trace_.frame_ends.back()));
     return;
   }
-  if (event == "reset") {
-    trace_.resets.push_back(ordered_cycle(trace_.resets.empty() ? 0 : trace_.resets.back()));
+  if (event == "mcu_reset") {
+    trace_.mcu_resets.push_back(ordered_cycle(trace_.mcu_resets.empty() ? 0 : trace_.mcu_resets.back()));
     return;
   }
   if (event == "reply") {

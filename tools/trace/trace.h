@@ -14,7 +14,7 @@
 //                                 (with stepchoir-vboard --trace-frames; motor and value unused)
 //   reply,0,2000900,0,12,         the USB bridge passed 12 of the board's bytes to the host
 //                                 (with --trace-frames)
-//   reset,0,1500000,0,,           the host's open of the port reset the MCU (DTR)
+//   mcu_reset,0,1500000,0,,       the host's open of the port reset the MCU (DTR)
 //   # end cycle=160000000
 //   # summary motor=0 steps=1234 ...
 // Within one motor and one event kind the rows are in cycle order; read_trace checks that.
@@ -75,7 +75,7 @@ struct Trace {
     uint64_t bytes;
   };
   std::vector<Reply> replies;             // "reply" rows, in order (--trace-frames)
-  std::vector<uint64_t> resets;           // cycles of "reset" rows, in order
+  std::vector<uint64_t> mcu_resets;       // cycles of "mcu_reset" rows, in order
   std::vector<std::string> summary_lines; // "summary ..." comment lines, without the leading "# "
 
   // Board time of a cycle: cycle / f_cpu.

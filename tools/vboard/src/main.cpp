@@ -145,7 +145,7 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
     if (options.exit_with_parent && getppid() != parent) g_stop_signal = SIGHUP;
     if (link.take_host_open() && options.auto_reset) {
       avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
-      trace.reset(avr.cycle());
+      trace.mcu_reset(avr.cycle());
       ++result.host_resets;
     }
     avr.leave_bootloader_when_done();

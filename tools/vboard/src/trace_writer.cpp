@@ -117,9 +117,9 @@ void TraceWriter::frame_end(uint64_t cycle) {
   end_row();
 }
 
-void TraceWriter::reset(uint64_t cycle) {
+void TraceWriter::mcu_reset(uint64_t cycle) {
   if (!file_) return;
-  row_prefix("reset", 0, cycle, false);
+  row_prefix("mcu_reset", 0, cycle, false);
   put_char(',');
   end_row();
 }

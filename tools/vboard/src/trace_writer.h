@@ -50,8 +50,8 @@ class TraceWriter {
   void frame_end(uint64_t cycle);
   // reply,0,CYCLE,0,BYTES, : the USB bridge passed BYTES of the board's to the host.
   void reply(uint64_t cycle, uint64_t bytes);
-  // reset,0,CYCLE,0,, : the host's open reset the MCU (DTR).
-  void reset(uint64_t cycle);
+  // mcu_reset,0,CYCLE,0,, : the host's open reset the MCU (DTR).
+  void mcu_reset(uint64_t cycle);
 
   // Rows written so far.
   uint64_t rows() const { return rows_; }
