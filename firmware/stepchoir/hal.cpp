@@ -30,7 +30,8 @@ void set_period(uint8_t m, uint32_t period_q8) {
   // A driver woken for this note, or still waking, may step only from its ready time on: the
   // note starts then, exactly (a timed start), and so does a change made meanwhile.
   uint32_t ready;
-  if (period_q8 != sc::kPeriodSilent && drivers::ready_time(m, &ready)) sched::set_period_at(m, period_q8, ready);
+  if (period_q8 != sc::kPeriodSilent && drivers::maybe_unready(m) && drivers::ready_time(m, &ready))
+    sched::set_period_at(m, period_q8, ready);
   else sched::set_period(m, period_q8);
 }
 

@@ -90,16 +90,22 @@ void wake(uint8_t m) {
   const uint32_t now = sched::now();  // read after the pins changed: the wake time counts from it
   for (uint8_t i = 0; i < kMotors; ++i)
     if (i == m || (off && same_enable(i, m))) drv::woke(g_power[i], now);
+  drivers::g_unsure = 0xFF;
 }
 
 // Called from: poll, act. ENABLE off for motor m (every motor on a shared one).
 void disable_group(uint8_t m) {
   for (uint8_t i = 0; i < kMotors; ++i)
     if (same_enable(i, m)) g_drivers[i].enable(false);
+  drivers::g_unsure = 0xFF;
 }
 }  // namespace
 
 namespace drivers {
+
+uint8_t g_unsure = 0xFF;
+// A kMsgDriver or kMsgDriverAct was taken: poll has idle times and holds to look after.
+bool g_power_used = false;
 
 // Called from: setup(). Pins of every socket, then the step scheduler.
 void begin() {
@@ -144,6 +150,8 @@ uint8_t configure_power(const sc::DriverBody &b) {
   drv::set_idle(p, b.idle, b.idle_ms, b.wake_us, F_CPU, now);
   p.flags &= (uint8_t)~drv::kAsleep;
   if (rises) drv::woke(p, now);
+  g_unsure = 0xFF;
+  g_power_used = true;
   return sc::kErrNone;
 }
 
@@ -180,13 +188,16 @@ uint8_t act(uint8_t m, uint8_t action) {
     d.reset();
     drv::woke(p, sched::now());
   }
+  g_unsure = 0xFF;
+  g_power_used = true;
   return sc::kErrNone;
 }
 
 bool ready_time(uint8_t m, uint32_t *ready) {
   wake(m);
-  if (!(g_power[m].flags & drv::kWaking)) return false;  // awake: no clock read on the live path
-  return drv::waking(g_power[m], sched::now(), ready);
+  if ((g_power[m].flags & drv::kWaking) && drv::waking(g_power[m], sched::now(), ready)) return true;
+  g_unsure &= (uint8_t)~(1u << m);  // awake and ready: the next live notes need not ask
+  return false;
 }
 
 uint32_t entry_time(uint8_t m, uint32_t period_q8, uint32_t at) {
@@ -214,6 +225,7 @@ __attribute__((noinline)) void check_idle(uint32_t now) {
     const bool due = drv::idle_due(p, sounding & (1u << m), now);
     all_idle = all_idle && due;
     if (!due) continue;
+    drivers::g_unsure = 0xFF;
     if (p.idle == sc::kIdleSleep) {
       g_drivers[m].sleep(true);
       p.flags |= drv::kAsleep;
@@ -230,6 +242,7 @@ __attribute__((noinline)) void check_idle(uint32_t now) {
 namespace drivers {
 
 void poll() {
+  if (!g_power_used) return;  // no driver message yet: nothing to power down (one load a pass)
   const uint32_t now = sched::now();
   if ((int32_t)(now - g_next_poll) < 0) return;
   g_next_poll = now + cfg::kDriverPollTicks;
@@ -241,6 +254,7 @@ void disable_all() {
     g_drivers[m].enable(false);
     g_power[m].flags &= (uint8_t)~drv::kHeld;  // the queue is emptied with it
   }
+  g_unsure = 0xFF;
 }
 
 bool any_enabled() {

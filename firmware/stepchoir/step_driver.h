@@ -57,6 +57,11 @@ uint8_t act(uint8_t m, uint8_t action);
 // Called from: main loop, before motor m plays a live note. Wakes its driver if it is powered
 // down; true while it is still waking, with the time its first edge may come in *ready.
 bool ready_time(uint8_t m, uint32_t *ready);
+// Bit m: motor m's driver may be asleep, disabled or still waking, so a note asks ready_time;
+// clear, the driver is awake and ready_time would only say so (a live note skips its 150
+// cycles). Set for every motor whenever any driver powers down or wakes; cleared by ready_time.
+extern uint8_t g_unsure;
+inline bool maybe_unready(uint8_t m) { return g_unsure & (uint8_t)(1u << m); }
 // Called from: main loop, before a timed entry of motor m at `at` is queued. Wakes its driver
 // for a note, holds it awake until `at`; returns the time to play the entry at (`at`, or the
 // driver's ready time when later).
