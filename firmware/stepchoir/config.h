@@ -25,8 +25,8 @@ static const uint8_t kDeferBytes = 16;
 
 // The main loop takes a timestamped entry from the queue this long before its time (ticks),
 // so that it starts or strikes its motor exactly on the time: 3 ms. It looks at the queue at
-// the start of every pass and, between frames, every kPollBytes bytes it takes: at most a
-// frame (sc::kMaxFrameWire bytes) and kPollBytes apart, under 1 ms of line time.
+// the start of every pass and, between frames, every kPollBytes bytes it takes: at most about
+// a frame (sc::kMaxFrameWire bytes), kPollBytes and the pass's other work apart, under 1 ms.
 static const uint16_t kTakeTicks = 48000;
 static const uint8_t kPollBytes = 16;
 

@@ -66,7 +66,7 @@ namespace {
 const uint8_t kMotors = board::active::kMotorCount;
 StepDriver g_drivers[kMotors];
 drv::Power g_power[kMotors];  // zero: idle none, no wake time, awake
-uint32_t g_next_poll;         // board time of the next idle check
+uint32_t g_last_poll;         // board time of the last idle check
 
 // True when motor i shares motor m's ENABLE pin (itself included).
 inline bool same_enable(uint8_t i, uint8_t m) { return i == m || board::active::kSharedEnable; }
@@ -143,8 +143,9 @@ uint8_t configure_power(const sc::DriverBody &b) {
   drv::Power &p = g_power[b.motor];
   const board::Pin sleep = board::pin_from_map(board::active::kPinMap, board::active::kPinCount, b.sleep_pin);
   const board::Pin reset = board::pin_from_map(board::active::kPinMap, board::active::kPinCount, b.reset_pin);
-  // SLEEP goes high now where it was low or is a new pin: the driver wakes.
-  const bool rises = sleep.wired() && ((p.flags & drv::kAsleep) || !board::same_pin(sleep, d.sleep_pin()));
+  // The driver wakes where SLEEP was low (kept, moved or no longer wired: the carrier's pull-up
+  // takes it high) or is a new pin.
+  const bool rises = (p.flags & drv::kAsleep) || (sleep.wired() && !board::same_pin(sleep, d.sleep_pin()));
   d.set_power_pins(sleep, reset);
   const uint32_t now = sched::now();
   drv::set_idle(p, b.idle, b.idle_ms, b.wake_us, F_CPU, now);
@@ -169,6 +170,12 @@ uint8_t act(uint8_t m, uint8_t action) {
     }
     return sc::kErrNone;
   }
+  // Refused while a timed note of a motor it powers down is queued or taken (its driver must be
+  // awake on the note's time, which the note's wake at queueing made sure of).
+  const uint32_t now = sched::now();
+  for (uint8_t i = 0; i < kMotors; ++i)
+    if ((i == m || (action == sc::kActDisable && same_enable(i, m))) && drv::held(g_power[i], now))
+      return sc::kErrConfig;
   // Silence first, and wait until the motors are silent: a sounding motor takes the command at
   // a visit or at its next edge (within cfg::kVisitMarginTicks, 256 us), which still sounds.
   uint8_t silencing = 0;
@@ -219,20 +226,21 @@ __attribute__((noinline)) void check_idle(uint32_t now) {
   for (uint8_t m = 0; m < kMotors; ++m) {
     drv::Power &p = g_power[m];
     if (down(m)) {
-      if (drv::held(p, now)) wake(m);  // a queued note needs it (after a sleep or disable act)
+      if (drv::held(p, now)) wake(m);  // a queued note needs it (queueing woke it; acts wait for it)
       continue;
     }
     const bool due = drv::idle_due(p, sounding & (1u << m), now);
     all_idle = all_idle && due;
     if (!due) continue;
-    drivers::g_unsure = 0xFF;
     if (p.idle == sc::kIdleSleep) {
       g_drivers[m].sleep(true);
       p.flags |= drv::kAsleep;
+      drivers::g_unsure = 0xFF;
     } else if (board::active::kSharedEnable) {
-      any_disable = true;
+      any_disable = true;  // disable_group below, once every motor on it is idle
     } else {
       g_drivers[m].enable(false);
+      drivers::g_unsure = 0xFF;
     }
   }
   if (board::active::kSharedEnable && all_idle && any_disable) disable_group(0);
@@ -244,8 +252,8 @@ namespace drivers {
 void poll() {
   if (!g_power_used) return;  // no driver message yet: nothing to power down (one load a pass)
   const uint32_t now = sched::now();
-  if ((int32_t)(now - g_next_poll) < 0) return;
-  g_next_poll = now + cfg::kDriverPollTicks;
+  if ((uint32_t)(now - g_last_poll) < cfg::kDriverPollTicks) return;  // elapsed: no wrap to fear
+  g_last_poll = now;
   check_idle(now);
 }
 

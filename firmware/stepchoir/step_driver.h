@@ -52,7 +52,8 @@ uint8_t configure(const sc::ConfigBody &c);
 // wake time; sc::kErrConfig when they do not fit the board (drv::check_driver).
 uint8_t configure_power(const sc::DriverBody &b);
 // Called from: main loop (kMsgDriverAct; motor checked). sc::DriverAction now; sc::kErrConfig
-// for an unknown action or one whose pin is not wired.
+// for an unknown action, one whose pin is not wired, or a sleep, disable or reset of a motor
+// with a timed note queued.
 uint8_t act(uint8_t m, uint8_t action);
 // Called from: main loop, before motor m plays a live note. Wakes its driver if it is powered
 // down; true while it is still waking, with the time its first edge may come in *ready.
@@ -67,9 +68,9 @@ inline bool maybe_unready(uint8_t m) { return g_unsure & (uint8_t)(1u << m); }
 // driver's ready time when later).
 uint32_t entry_time(uint8_t m, uint32_t period_q8, uint32_t at);
 // Called from: main loop, every pass. Once a millisecond: powers down the drivers whose motors
-// have been silent for their idle time. Budget (by instruction count): about 100 cycles a
-// pass (a clock read); the millisecond's check about 100 cycles and 50 a motor, under 2 % of
-// the CPU with five motors.
+// have been silent for their idle time. Budget (by instruction count): one load a pass until
+// a driver message came; then about 100 cycles a pass (a clock read), and the millisecond's
+// check about 100 cycles and 50 a motor, under 2 % of the CPU with five motors.
 void poll();
 // Called from: main loop (stop-all, watchdog). Every driver off (ENABLE at its inactive level).
 void disable_all();

@@ -259,7 +259,7 @@ void Parser::parse_row(std::string_view line) {
   else if (event == "enable") push_level(m.enables, c, "enable", motor);
   else if (event == "sleep") push_level(m.sleeps, c, "sleep", motor);
   else if (event == "reset") push_level(m.resets, c, "reset", motor);
-  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce, enable, sleep, reset, frame or reply)");
+  else fail("unknown event " + quote(event) + " (expected step, dir, endstop, bounce, enable, sleep, reset, frame, reply or mcu_reset)");
 }
 
 Trace Parser::run(std::string_view text) {

@@ -122,7 +122,17 @@ std::optional<std::vector<uint8_t>> Board::wait_reply(uint8_t type, int timeout_
 }
 
 Caps Board::greet(int boot_wait_ms, int hello_timeout_ms) {
-  if (auto r = wait_reply(sc::kMsgCaps, boot_wait_ms)) return parse_caps(r->data(), r->size());
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  for (;;) {
+    const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(clock::now() - start).count();
+    if (waited >= boot_wait_ms) break;
+    auto r = wait_reply(sc::kMsgCaps, static_cast<int>(boot_wait_ms - waited));
+    if (!r) break;
+    // Capabilities sooner than any bootloader lets the firmware start were sent before the
+    // open (a USB bridge still held them): the board may be resetting now.
+    if (clock::now() - start >= std::chrono::milliseconds(kStaleMs)) return parse_caps(r->data(), r->size());
+  }
   return hello(hello_timeout_ms);
 }
 

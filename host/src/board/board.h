@@ -88,6 +88,9 @@ class Board {
   Caps greet(int boot_wait_ms = kBootWaitMs, int hello_timeout_ms = 1500);
   // Longer than either bootloader holds the board (tools/vboard/src/board_config.cpp).
   static constexpr int kBootWaitMs = 2000;
+  // Capabilities that come sooner than this after the open are stale (shorter than any
+  // bootloader, longer than any bridge holds bytes).
+  static constexpr int kStaleMs = 100;
 
   // Asks for status; nullopt on timeout.
   std::optional<Status> status(int timeout_ms = 500);

@@ -62,9 +62,10 @@ std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<
 }
 
 // Called from: run_live's loop when board b's link failed. Parks the board's threads, then
-// reopens `path` every 500 ms until a board with as many motors answers hello (or *stop);
-// the session then restores what should be sounding. Says so on stdout.
-void reconnect(LiveSession &session, size_t b, const std::string &path, size_t motors,
+// reopens `path` every 500 ms until a board with as many motors is greeted (or *stop), and
+// configures its motors again from `settings` (the open reset it: it runs on defaults); the
+// session then restores what should be sounding. Says so on stdout.
+void reconnect(LiveSession &session, size_t b, const std::string &path, size_t motors, const BoardSettings *settings,
                std::vector<std::unique_ptr<Board>> &boards, const std::atomic<bool> &stop, spdlog::logger &log) {
   std::printf("\nlive: %s: link lost; reconnecting\n", path.c_str());
   std::fflush(stdout);
@@ -81,6 +82,7 @@ void reconnect(LiveSession &session, size_t b, const std::string &path, size_t m
       const Caps caps = board->greet(Board::kBootWaitMs, 600);
       if (caps.motor_count != motors)
         throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
+      if (settings) configure_motors(*board, caps, *settings, path);
       session.attach_link(b, &board->link());
       boards[b] = std::move(board);
       std::printf("live: %s: reconnected\n", path.c_str());
@@ -211,7 +213,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
       const BoardStats &st = session.board_stats(b);
-      if (st.write_failed.load() || st.read_failed.load()) reconnect(session, b, ports[b], pool[b].motor_count, boards, stop, *log);
+      if (st.write_failed.load() || st.read_failed.load()) reconnect(session, b, ports[b], pool[b].motor_count, b < cfg.boards.size() ? &cfg.boards[b] : nullptr, boards, stop, *log);
     }
     if (errors != errors_logged) {
       log->warn("the boards reported {} errors (latest: {})", errors,

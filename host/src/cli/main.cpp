@@ -217,17 +217,21 @@ int main(int argc, char **argv) {
     }
     stepchoir::Board board(stepchoir::open_link(port));
     if (app.got_subcommand(panic)) {
-      // At once: a board that the open reset is silent already; one that it did not reset
-      // (no DTR reset wired) stops now.
+      // At once: a board that the open did not reset stops now. One that it reset is silent in
+      // its bootloader, which gets nothing more (a Mega's stays in it while bytes come): its
+      // capabilities are waited for, then silence is checked.
       board.resync();
+      board.send({sc::kMsgStopAll});
+      std::optional<stepchoir::Status> s = board.status(300);
+      if (!s) board.greet();
       for (int attempt = 0;; ++attempt) {
-        board.send({sc::kMsgStopAll});
-        const auto s = board.status(500);
         bool silent = s && !(s->head.flags & sc::kStatusDriversEnabled);
         if (s)
           for (const auto &m : s->motors) silent = silent && !(m.flags & sc::kMotorSounding);
         if (silent) break;
-        if (attempt == 4) throw std::runtime_error(port + ": stop-all sent, but the board does not report silence");
+        if (attempt == 3) throw std::runtime_error(port + ": stop-all sent, but the board does not report silence");
+        board.send({sc::kMsgStopAll});
+        s = board.status(500);
       }
       std::printf("%s: every motor silent, drivers off\n", port.c_str());
       return 0;

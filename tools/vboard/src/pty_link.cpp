@@ -106,7 +106,7 @@ bool PtyLink::take_host_open() {
     if (count <= 0) return opened;  // EAGAIN: no more events
     for (ssize_t at = 0; at < count;) {
       const inotify_event *event = reinterpret_cast<const inotify_event *>(buffer + at);
-      if (event->mask & IN_OPEN) opened = opened || host_opens_++ == 0;
+      if ((event->mask & IN_OPEN) && host_opens_++ == 0) opened = true;
       if ((event->mask & IN_CLOSE) && host_opens_ > 0) --host_opens_;
       at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
     }
