@@ -81,7 +81,7 @@ TEST_CASE("clock: the fit finds a crystal's error and the board's time through h
   }
 }
 
-TEST_CASE("clock: before a second of samples the rate stays nominal; the offset is fitted", "[player]") {
+TEST_CASE("clock: before a second of samples the rate stays nominal, and the offset is fitted", "[player]") {
   std::mt19937 rng(1);
   ClockSync sync(16e6);
   const FakeBoard b{3000, 5};
@@ -140,7 +140,7 @@ TEST_CASE("clock: slow round trips do not pull the fit", "[player]") {
   CHECK(sync.residual_us() < 5);
 }
 
-TEST_CASE("plan: a melodic line stays on its motor; another line takes another", "[player]") {
+TEST_CASE("plan: a melodic line stays on its motor, and another line takes another", "[player]") {
   // Line A: four notes legato on track 0; line B: two long notes on track 1.
   const Song s = song_of({note(0, 0.5, 60), note(0.5, 0.5, 62), note(1.0, 0.5, 64), note(1.5, 0.5, 65),
                           note(0, 1, 48, 1), note(1, 1, 50, 1)});
@@ -218,7 +218,7 @@ TEST_CASE("plan: selection, tempo, transpose, start position and short notes", "
   CHECK(plan_song(s, o).notes.size() == 1);
 }
 
-TEST_CASE("plan: notes outside a motor's range fold into it; no motor at all is an error", "[player]") {
+TEST_CASE("plan: notes outside a motor's range fold into it, and no motor at all is an error", "[player]") {
   PlanOptions o = motors(1);
   o.motors[0].lowest_note = 48;
   o.motors[0].highest_note = 72;

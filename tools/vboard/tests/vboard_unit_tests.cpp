@@ -312,7 +312,7 @@ TEST_CASE("virtual board starts with a touched switch pressed") {
   }
 }
 
-TEST_CASE("line noise: no rates pass every byte once; rates give about their share, reproducibly") {
+TEST_CASE("line noise: no rates pass every byte once, and rates give about their share, reproducibly") {
   LineNoise clean({}, 1);
   for (int b = 0; b < 256; ++b) {
     const LineOutcome o = clean.pass(static_cast<uint8_t>(b));
