@@ -157,7 +157,7 @@ TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with t
   std::thread staller([&] {
     std::mt19937 rng(11);
     std::uniform_int_distribution<int> stall_ms(20, 80), run_ms(30, 150);
-    std::this_thread::sleep_for(std::chrono::milliseconds(2900));  // past the bootloader's wait and the clock sync
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past the clock sync
     while (!done.load()) {
       const pid_t pid = play.pid();
       if (pid <= 0 || kill(pid, SIGSTOP) != 0) break;
@@ -599,7 +599,7 @@ TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors r
                     true);
   std::string line;
   REQUIRE(play.read_line(&line, 20000));  // "play: no --port: ..."
-  std::this_thread::sleep_for(std::chrono::milliseconds(3700));  // bootloader, sync, lead, a second of song
+  std::this_thread::sleep_for(std::chrono::milliseconds(2300));  // sync, lead, a second of song
   kill(play.pid(), SIGUSR1);                                      // pause
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(play.pid(), SIGUSR1);                                      // resume

@@ -26,7 +26,10 @@ std::string vboard_path() {
 
 std::vector<std::string> vboard_args(const std::string &path, const std::string &board, const std::string &link_path,
                                      const std::string &trace_path, const std::vector<std::string> &extra_args) {
-  std::vector<std::string> args{path, "--board", board, "--link", link_path, "--quiet", "--exit-with-parent"};
+  // The host's own board: opened once by the program that started it, it neither resets on
+  // the open nor has a bootloader to wait out (hello at once).
+  std::vector<std::string> args{path, "--board", board, "--link", link_path, "--quiet", "--exit-with-parent",
+                                "--no-auto-reset", "--no-bootloader"};
   if (!trace_path.empty()) args.insert(args.end(), {"--trace", trace_path});
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   return args;

@@ -178,7 +178,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::vector<LiveBoard> pool;
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
-    const Caps caps = boards.back()->greet();
+    const Caps caps = vboard ? boards.back()->hello() : boards.back()->greet();  // its own board does not reset
     if (b < cfg.boards.size()) configure_motors(*boards.back(), caps, cfg.boards[b], ports[b]);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }

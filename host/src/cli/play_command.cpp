@@ -247,7 +247,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboard.c_str(), link_path.c_str());
     }
     auto board = std::make_unique<Board>(open_link(link_path));
-    const Caps caps = board->greet();
+    const Caps caps = vb ? board->hello() : board->greet();  // its own board does not reset
     // Jam: the song's motors and the keyboard's.
     std::vector<uint8_t> song_ids, live_ids;
     for (uint8_t m = 0; m < caps.motor_count; ++m) {
