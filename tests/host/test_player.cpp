@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <random>
 
 #include "player/clock_sync.h"
@@ -70,11 +72,11 @@ TEST_CASE("clock: the fit finds a crystal's error and the board's time through h
     const FakeBoard b{ppm, 123456789};
     feed(sync, b, 1e6, 300, 10000, 300, 800, rng);  // 3 s of round trips, up to 0.8 ms extra
     CHECK(sync.ppm() == Approx(ppm).margin(30.0));  // 30 ppm = 0.05 cent
-    // The board's time now, and a lead ahead, within 100 us (the replies' extra delay is one
-    // way only: the fastest quarter of the round trips still carries up to 200 us of it, a
-    // constant offset that moves every note alike).
+    // The board's time when a request sent now, and one a lead ahead, reaches it (the way out
+    // is half the fixed round trip here), within 100 us: the replies' extra delay does not
+    // move it.
     for (double at : {4e6, 4.3e6}) {
-      const double want = 123456789 + at * 16.0 * (1 + ppm / 1e6);
+      const double want = 123456789 + (at + 150) * 16.0 * (1 + ppm / 1e6);
       CHECK(std::fabs(sync.ticks_at(at) - want) / 16.0 < 100.0);
       CHECK(sync.host_us_at(want) == Approx(at).margin(100.0));
     }
@@ -95,7 +97,7 @@ TEST_CASE("clock: the 32-bit counter wraps and the fit carries on", "[player]") 
   ClockSync sync(16e6);
   const FakeBoard b{0, 4294967296.0 - 16e6};  // wraps one second in
   feed(sync, b, 0, 300, 10000, 200, 100, rng);
-  const double want = 4294967296.0 - 16e6 + 3e6 * 16;  // unwrapped, past the wrap
+  const double want = 4294967296.0 - 16e6 + (3e6 + 100) * 16;  // unwrapped, past the wrap
   CHECK(std::fabs(sync.ticks_at(3e6) - want) / 16 < 40);
   CHECK(sync.ppm() == Approx(0).margin(30));
 }
@@ -107,7 +109,7 @@ TEST_CASE("clock: a board that falls behind for a moment is followed, not taken 
   b.stall_at_us = 1e6;  // its clock stands still for 100 ms (a stalled simulation)
   b.stall_us = 1e5;
   feed(sync, b, 0, 700, 10000, 200, 0, rng);  // every sample accepted (feed REQUIREs it)
-  CHECK(std::fabs(sync.ticks_at(7e6) - b.ticks_at(7e6)) / 16 < 100);
+  CHECK(std::fabs(sync.ticks_at(7e6) - b.ticks_at(7e6 + 100)) / 16 < 100);
 }
 
 TEST_CASE("clock: one odd sample is ignored, two in a row mean a new board", "[player]") {
@@ -126,18 +128,107 @@ TEST_CASE("clock: one odd sample is ignored, two in a row mean a new board", "[p
   CHECK(sync.add(540000, 540200, 99));
 }
 
-TEST_CASE("clock: slow round trips do not pull the fit", "[player]") {
+TEST_CASE("clock: late replies, and a host held up between its stamp and its write, do not pull the fit",
+          "[player]") {
   std::mt19937 rng(5);
   ClockSync sync(16e6);
   const FakeBoard b{0, 0};
-  // Every third reply comes 5 ms late (a loaded host): the fit keeps to the fast ones.
+  // Every third reply comes 5 ms late (a loaded host reading); every tenth request went out
+  // 5 ms after its stamp (a host held up before writing): the fit keeps to the others.
   for (int i = 0; i < 300; ++i) {
     const double send = i * 10000.0;
-    const double recv = send + 200 + (i % 3 == 0 ? 5000 : 0);
-    REQUIRE(sync.add(static_cast<uint64_t>(send), static_cast<uint64_t>(recv), b.ticks_at(send + 100)));
+    const double out = send + (i % 10 == 1 ? 5000 : 0);
+    const double recv = out + 200 + (i % 3 == 0 ? 5000 : 0);
+    REQUIRE(sync.add(static_cast<uint64_t>(send), static_cast<uint64_t>(recv), b.ticks_at(out + 100)));
   }
-  CHECK(std::fabs(sync.ticks_at(3e6) - 3e6 * 16) / 16 < 5);
+  CHECK(std::fabs(sync.ticks_at(3e6) - (3e6 + 100) * 16) / 16 < 5);
   CHECK(sync.residual_us() < 5);
+}
+
+namespace {
+
+// Round trips over a model of the Uno R3's USB link (docs/usb-bridges.md): the request waits
+// for the host's next 1 ms USB frame; the board stamps it as its 6 bytes arrive; the reply
+// waits in the 16U2 until its 4.096 ms timer (on its own crystal, 60 ppm off) flushes it,
+// then for the next frame, then for the host's scheduler (up to 0.3 ms). The board's clock
+// runs ppm off and falls behind (a stalled simulation) by lag_us(t) at host time t.
+struct BridgeModel {
+  double ppm = 0;
+  std::function<double(double)> lag_us = [](double) { return 0.0; };
+  std::mt19937 rng{9};
+
+  // One round trip sent at host time send_us: fed to sync; false when sync refused it.
+  bool round_trip(ClockSync &sync, double send_us) {
+    std::uniform_real_distribution<double> sched(0, 300);
+    const double frame_phase_us = 370, flush_period_us = 4096 * (1 + 60e-6);
+    const double out = std::ceil((send_us - frame_phase_us) / 1000) * 1000 + frame_phase_us;
+    const double stamp = out + 6 * 87;  // 6 bytes at 115,200 baud
+    const double ready = stamp + 6 * 87;
+    const double flush = std::ceil(ready / flush_period_us) * flush_period_us;
+    const double in = std::ceil((flush - frame_phase_us) / 1000) * 1000 + frame_phase_us;
+    const double recv = in + sched(rng);
+    const double board_us = stamp - lag_us(stamp);
+    const uint32_t ticks =
+        static_cast<uint32_t>(static_cast<uint64_t>(std::llround(7e8 + board_us * 16.0 * (1 + ppm / 1e6))) & 0xffffffffu);
+    return sync.add(static_cast<uint64_t>(send_us), static_cast<uint64_t>(recv), ticks);
+  }
+};
+
+// A note's error in cents for a rate error in ppm.
+double cents(double ppm_error) { return 1200 * std::log2(1 + ppm_error / 1e6); }
+
+}  // namespace
+
+TEST_CASE("clock: through a 16U2 bridge's 1 ms frames and 4 ms batches the rate converges as the song goes on",
+          "[player]") {
+  for (double ppm : {-5000.0, 0.0, 2500.0, 5000.0}) {
+    ClockSync sync(16e6);
+    BridgeModel link{ppm};
+    double worst_after_2s = 0, worst_after_10s = 0;
+    for (int i = 0; i < 1500; ++i) {  // 30 s at the player's 50 round trips a second
+      const double t = 1e6 + i * 20000.0 + (i % 7) * 131.0;
+      REQUIRE(link.round_trip(sync, t));
+      const double err = std::fabs(cents(sync.ppm() - ppm));
+      if (i >= 150) worst_after_2s = std::max(worst_after_2s, err);  // 1 s of sync, then 2 s of song
+      if (i >= 550) worst_after_10s = std::max(worst_after_10s, err);
+    }
+    INFO("crystal " << ppm << " ppm: the rate's worst error " << worst_after_2s << " cent from 3 s on, "
+                    << worst_after_10s << " cent from 11 s on");
+    std::printf("clock, 16U2 link, crystal %+.0f ppm: worst %.4f cent from 3 s on, %.4f cent from 11 s on\n", ppm,
+                worst_after_2s, worst_after_10s);
+    CHECK(worst_after_2s < 0.5);
+    CHECK(worst_after_10s < 0.1);
+  }
+}
+
+TEST_CASE("clock: a board that falls 10 ms behind for a moment and catches up moves neither rate nor time",
+          "[player]") {
+  // A stalled simulation: its clock stops for 10 ms, then runs three times as fast until it
+  // is back; a round trip in that while is short but its stamp is behind. Once in the first
+  // second (before the rate), then every 1.3 s.
+  for (double first_s : {0.6, 2.0}) {
+    ClockSync sync(16e6);
+    BridgeModel link{5000};
+    link.lag_us = [first_s](double t_us) {
+      const double s = t_us / 1e6 - first_s;
+      if (s < 0) return 0.0;
+      const double in = std::fmod(s, 1.3) * 1e6;  // us into this stall
+      return in < 10000 ? in : std::max(0.0, 10000 - (in - 10000) * 2);
+    };
+    double worst_ppm = 0, worst_time_us = 0;
+    for (int i = 0; i < 750; ++i) {
+      const double t = i * 20000.0 + 7000;
+      REQUIRE(link.round_trip(sync, t));
+      if (i < 100) continue;  // 2 s
+      worst_ppm = std::max(worst_ppm, std::fabs(sync.ppm() - 5000));
+      const double want = 7e8 + (t + 20000) * 16 * 1.005;  // the board's time one sample on
+      worst_time_us = std::max(worst_time_us, std::fabs(sync.ticks_at(t + 20000) - want) / 16);
+    }
+    INFO("first stall at " << first_s << " s: worst rate error " << worst_ppm << " ppm, time " << worst_time_us << " us");
+    std::printf("clock, stalls from %.1f s: worst %.1f ppm, %.0f us\n", first_s, worst_ppm, worst_time_us);
+    CHECK(cents(worst_ppm) < 0.5);
+    CHECK(worst_time_us < 3000);  // the bridge's own one-sided delays: a constant part
+  }
 }
 
 TEST_CASE("plan: a melodic line stays on its motor, and another line takes another", "[player]") {

@@ -173,6 +173,9 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
         ->check(CLI::Range(0.0, 1000.0))->default_val(c->sel.min_note_ms);
     s->add_option("--vboard", c->vboard, "Board the virtual board simulates (without --port)")
         ->check(CLI::IsMember({"uno", "mega"}))->default_val(c->vboard);
+    s->add_option("--vboard-link", c->vboard_link,
+                  "The virtual board's USB bridge (default: the virtual board's; docs/usb-bridges.md)")
+        ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
   };
   c->play = app.add_subcommand("play", "Play a song file on the motors (space pauses, q or Ctrl-C stops)");
   selection(c->play);
@@ -242,6 +245,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       // host stalled for a moment still keeps ahead of the board.
       if (rendering) extra.insert(extra.end(), {"--speed", std::to_string(kRenderSpeed)});
       if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
+      if (!vboard_link.empty()) extra.insert(extra.end(), {"--link-model", vboard_link});
       vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
       if (!rendering)
         std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboard.c_str(), link_path.c_str());

@@ -25,7 +25,7 @@ struct PlayCommand {
   std::string song;
   SongSelection sel;
   // play
-  std::string port, vboard = "uno", vboard_trace;
+  std::string port, vboard = "uno", vboard_trace, vboard_link;  // vboard_link: empty = its default
   double clock_ppm = 0, lead_ms = 300, sync_s = 1.0;
   bool loop = false, quiet = false, no_auto_tune = false;
   int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing

@@ -8,16 +8,16 @@
 namespace stepchoir {
 
 bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
-  const double mid = 0.5 * (static_cast<double>(send_us) + static_cast<double>(recv_us));
+  const double send = static_cast<double>(send_us);
   const double rtt = recv_us > send_us ? static_cast<double>(recv_us - send_us) : 0.0;
   if (samples_.empty()) {
-    samples_.push_back({mid, static_cast<double>(board_ticks), rtt});
-    origin_us_ = mid;
+    samples_.push_back({send, static_cast<double>(board_ticks), rtt});
+    origin_us_ = send;
     offset_ticks_ = board_ticks;
     return true;
   }
   // Unwrap against the prediction: the board's counter wraps every 2^32 ticks.
-  const double predicted = ticks_at(mid);
+  const double predicted = ticks_at(send);
   const double wrap = 4294967296.0;
   const double ticks = board_ticks + std::round((predicted - board_ticks) / wrap) * wrap;
   // A board that restarted counts from 0 again: its time goes backwards. (One that only fell
@@ -28,8 +28,25 @@ bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
     return true;  // one odd sample: wait for the next before calling it a new board
   }
   outliers_ = 0;
-  samples_.push_back({mid, ticks, rtt});
-  while (samples_.size() > window_) samples_.pop_front();
+  // The board stamps a request between its send and its reply: off the line by more than that
+  // and kStepMinUs, kStepSamples times in a row on the same side, its clock stepped (time a
+  // stalled simulation gave up): the fit starts again from those samples, keeping the rate.
+  // (One that fell behind for a moment and caught up is left out by the fit's trim.)
+  const double off_us = (ticks - ticks_at(send)) * 1e6 / rate_;
+  const double margin_us = std::max(kStepMinUs, 4 * residual_us_);
+  if (off_us < -margin_us || off_us > rtt + margin_us) {
+    const int side = off_us > 0 ? 1 : -1;
+    off_line_ = off_line_ * side > 0 ? off_line_ + side : side;
+  } else {
+    off_line_ = 0;
+  }
+  samples_.push_back({send, ticks, rtt});
+  if (std::abs(off_line_) >= kStepSamples) {
+    samples_.erase(samples_.begin(), samples_.end() - std::abs(off_line_));
+    off_line_ = 0;
+  }
+  while (samples_.size() > window_ || samples_.back().host_us - samples_.front().host_us > kWindowS * 1e6)
+    samples_.pop_front();
   fit();
   return true;
 }
@@ -39,7 +56,7 @@ void ClockSync::reset() {
   rate_ = nominal_;
   has_rate_ = false;
   origin_us_ = offset_ticks_ = residual_us_ = 0;
-  outliers_ = 0;
+  outliers_ = off_line_ = 0;
 }
 
 double ClockSync::min_rtt_us() const {
@@ -48,46 +65,106 @@ double ClockSync::min_rtt_us() const {
   return m;
 }
 
-// Called from: add. Keeps the samples with the shortest round trips (the fastest quarter, or
-// all within 100 us of the shortest: a delay on one way only moves a midpoint by half of
-// it), then fits ticks = offset + rate * (host - origin).
+namespace {
+
+// A point of the fit: host time (us), board ticks.
+struct Point {
+  double host_us, ticks;
+};
+
+// Least-squares line ticks = mean_t + slope * (host - mean_h) through the points kept.
+struct Line {
+  double n = 0, mean_h = 0, mean_t = 0, slope = 0, span_us = 0;
+  double at(double host_us) const { return mean_t + slope * (host_us - mean_h); }
+};
+
+Line fit_line(const std::vector<Point> &points, const std::vector<bool> &keep, double fallback_slope) {
+  Line l;
+  double sum_h = 0, sum_t = 0, first = 0, last = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!keep[i]) continue;
+    if (l.n == 0) first = points[i].host_us;
+    last = points[i].host_us;
+    l.n += 1;
+    sum_h += points[i].host_us;
+    sum_t += points[i].ticks;
+  }
+  if (l.n == 0) return l;
+  l.mean_h = sum_h / l.n;
+  l.mean_t = sum_t / l.n;
+  l.span_us = last - first;
+  double sxx = 0, sxy = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!keep[i]) continue;
+    sxx += (points[i].host_us - l.mean_h) * (points[i].host_us - l.mean_h);
+    sxy += (points[i].host_us - l.mean_h) * (points[i].ticks - l.mean_t);
+  }
+  l.slope = l.n >= 3 && sxx > 0 ? sxy / sxx : fallback_slope;
+  return l;
+}
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+// Called from: add. The points: of each point_samples in a row, of those whose round trip is
+// within kRttSlackUs of the quickest (a request held up on its way out, in the host's queue or
+// behind other frames, lengthens its round trip), the one whose board time is furthest ahead
+// of its send time (the request's way out varies by up to a USB frame, the reply's by a
+// bridge's whole batching time, and a board that fell behind only lags); with kRoundTrip, the
+// quickest round trip at its midpoint. A line through them; points off it by more than four times
+// their typical distance (at least kTrimMinUs) are left out and the line fitted again,
+// twice. The rate is taken once the points span min_rate_span_s.
 void ClockSync::fit() {
-  std::vector<double> rtts;
-  rtts.reserve(samples_.size());
-  for (const Sample &s : samples_) rtts.push_back(s.rtt_us);
-  std::nth_element(rtts.begin(), rtts.begin() + rtts.size() / 4, rtts.end());
-  const double limit = std::max(rtts[rtts.size() / 4], min_rtt_us() + 100.0);
-  double n = 0, sum_h = 0, sum_t = 0, first = 0, last = 0;
-  for (const Sample &s : samples_) {
-    if (s.rtt_us > limit) continue;
-    if (n == 0) first = s.host_us;
-    last = s.host_us;
-    n += 1;
-    sum_h += s.host_us;
-    sum_t += s.ticks;
-  }
-  const double mean_h = sum_h / n, mean_t = sum_t / n;
-  if (n >= 3 && (last - first) >= min_rate_span_s_ * 1e6) {
-    double sxx = 0, sxy = 0;
-    for (const Sample &s : samples_) {
-      if (s.rtt_us > limit) continue;
-      sxx += (s.host_us - mean_h) * (s.host_us - mean_h);
-      sxy += (s.host_us - mean_h) * (s.ticks - mean_t);
+  const double per_us = rate_ / 1e6;
+  std::vector<Point> points;
+  for (size_t first = 0; first < samples_.size(); first += point_samples_) {
+    const size_t end = std::min(samples_.size(), first + point_samples_);
+    double quickest = samples_[first].rtt_us;
+    for (size_t i = first; i < end; ++i) quickest = std::min(quickest, samples_[i].rtt_us);
+    const Sample *best = nullptr;
+    for (size_t i = first; i < end; ++i) {
+      const Sample &s = samples_[i];
+      if (way_ == Way::kRoundTrip) {  // the quickest round trip, at its midpoint
+        if (s.rtt_us == quickest && !best) best = &s;
+        continue;
+      }
+      if (s.rtt_us > quickest + kRttSlackUs) continue;
+      if (!best || s.ticks - s.host_us * per_us > best->ticks - best->host_us * per_us) best = &s;
     }
-    if (sxx > 0) {
-      rate_ = sxy / sxx * 1e6;
-      has_rate_ = true;
-    }
+    const double at = way_ == Way::kRoundTrip ? best->host_us + best->rtt_us / 2 : best->host_us;
+    points.push_back({at, best->ticks});
   }
-  origin_us_ = mean_h;
-  offset_ticks_ = mean_t;
+  std::vector<bool> kept(points.size(), true);
+  Line l = fit_line(points, kept, per_us);
+  for (int pass = 0; pass < 2 && points.size() >= 3; ++pass) {
+    std::vector<double> off(points.size());
+    for (size_t i = 0; i < points.size(); ++i) off[i] = (points[i].ticks - l.at(points[i].host_us)) / per_us;
+    const double centre = median(off);
+    std::vector<double> dist(points.size());
+    for (size_t i = 0; i < points.size(); ++i) dist[i] = std::fabs(off[i] - centre);
+    const double band = std::max(kTrimMinUs, 4 * 1.4826 * median(dist));
+    for (size_t i = 0; i < points.size(); ++i) kept[i] = dist[i] <= band;
+    const Line trimmed = fit_line(points, kept, per_us);
+    if (trimmed.n == 0) break;
+    l = trimmed;
+  }
+  if (l.n >= 3 && l.span_us >= min_rate_span_s_ * 1e6 && l.slope > 0) {
+    rate_ = l.slope * 1e6;
+    has_rate_ = true;
+  }
+  origin_us_ = l.mean_h;
+  offset_ticks_ = l.mean_t;
   double sq = 0;
-  for (const Sample &s : samples_) {
-    if (s.rtt_us > limit) continue;
-    const double e_us = (s.ticks - ticks_at(s.host_us)) * 1e6 / rate_;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!kept[i]) continue;
+    const double e_us = (points[i].ticks - ticks_at(points[i].host_us)) * 1e6 / rate_;
     sq += e_us * e_us;
   }
-  residual_us_ = std::sqrt(sq / n);
+  residual_us_ = std::sqrt(sq / l.n);
 }
 
 }  // namespace stepchoir

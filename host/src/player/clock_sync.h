@@ -2,13 +2,20 @@
 // round trips (pure; the player feeds it).
 //
 // Each clock request is stamped on the host when it is handed to the OS (send) and when its
-// reply is decoded (recv); the board stamps it with its tick counter when it decoded it. The
-// board's time at the host's midpoint (send + recv) / 2 is a sample; its error is at most half
-// the round trip. Like an NTP/PTP client, the estimate keeps only the samples with the shortest
-// round trips in a sliding window (a loaded host or link only lengthens round trips) and fits
-// a line through them by least squares: the slope is the board's real tick rate (its crystal's
-// error), the line the board's time at any host time. 32-bit tick counts are unwrapped against
-// the prediction, so a song may last longer than the counter's 268 s period.
+// reply is decoded (recv); the board stamps it with its tick counter when it decoded it, so
+// the board's time lies between the two. Through a USB bridge the two ways differ: a request
+// waits at most for the next 1 ms USB frame, a reply for the bridge's whole batching time (up
+// to 4 ms on a 16U2, 16 ms on an FTDI). The fit therefore works from the send side: of every
+// few samples in a row, of those with about the quickest round trip (a request held up on its
+// way out lengthens it), it takes the one whose board time is furthest ahead of its send time
+// (the quickest way out; a board that fell behind for a moment, as a stalled simulation does,
+// only lags) and fits a line through those by least squares, leaving out
+// points far off it: the slope is the board's real tick rate (its crystal's error), the line
+// the board's time at any host time, a constant fraction of a frame ahead. Samples off the
+// line by tens of ms several times in a row mean the board's clock stepped, and the fit
+// starts again from them with the rate it has. The window slides, so the fit keeps refining
+// for as long as samples come. 32-bit tick counts are unwrapped against the prediction, so a
+// song may last longer than the counter's 268 s period.
 #ifndef STEPCHOIR_HOST_PLAYER_CLOCK_SYNC_H
 #define STEPCHOIR_HOST_PLAYER_CLOCK_SYNC_H
 
@@ -20,9 +27,15 @@ namespace stepchoir {
 
 class ClockSync {
  public:
-  static constexpr size_t kWindow = 500;          // samples kept (10 s at the player's 50 a second)
+  static constexpr size_t kWindow = 2000;         // samples kept at most
+  static constexpr double kWindowS = 10.0;        // samples kept from this much host time
   static constexpr double kMinRateSpanS = 1.0;    // span of samples before the rate is fitted
   static constexpr double kResetJumpS = 0.05;     // the board's time this far back: a new board
+  static constexpr size_t kPointSamples = 8;      // one point of the fit per this many samples
+  static constexpr double kRttSlackUs = 1000;     // a point's samples: round trips this close to the quickest
+  static constexpr double kTrimMinUs = 300;       // the fit keeps points this close to its line
+  static constexpr double kStepMinUs = 20000;     // a sample this far off the line is off it
+  static constexpr int kStepSamples = 5;          // off the line this often in a row: the clock stepped
 
   // nominal_ticks_per_s: the board's F_CPU (its tick rate if its crystal were exact).
   explicit ClockSync(double nominal_ticks_per_s) : nominal_(nominal_ticks_per_s), rate_(nominal_ticks_per_s) {}
@@ -37,16 +50,28 @@ class ClockSync {
   // Keeps the last `samples` only and fits a rate once they span min_rate_span_s (a board
   // simulated as fast as it runs changes speed: a short window follows it). Called from: the
   // player, before the first sample.
-  // reset_jump_s: how far back the board's time must go to mean a new board (kResetJumpS).
-  void set_window(size_t samples, double min_rate_span_s, double reset_jump_s) {
+  // reset_jump_s: how far back the board's time must go to mean a new board (kResetJumpS);
+  // point_samples: one point of the fit per this many samples (kPointSamples).
+  void set_window(size_t samples, double min_rate_span_s, double reset_jump_s, size_t point_samples) {
     window_ = samples < 3 ? 3 : samples;
     min_rate_span_s_ = min_rate_span_s;
     reset_jump_s_ = reset_jump_s;
+    point_samples_ = point_samples < 1 ? 1 : point_samples;
   }
+
+  // Which way of the round trip the fit trusts. kSendSide: the request's (a direct link, where
+  // a reply may wait for a bridge's whole batching time); ticks_at is then the board's time as
+  // a request sent then reaches it. kRoundTrip: neither (the request waits in another
+  // thread's queue, as in jam): the quickest round trip of each point, at its midpoint.
+  enum class Way { kSendSide, kRoundTrip };
+  // Called from: the player, before the first sample.
+  void set_way(Way way) { way_ = way; }
 
   // True once a sample is in (before that, ticks_at is meaningless).
   bool ready() const { return !samples_.empty(); }
   size_t samples() const { return samples_.size(); }
+  // Host time the samples in the window span, seconds.
+  double span_s() const { return samples_.empty() ? 0 : (samples_.back().host_us - samples_.front().host_us) / 1e6; }
 
   // The board's unwrapped tick count at a host time (us). Called from: the player.
   double ticks_at(double host_us) const { return offset_ticks_ + (host_us - origin_us_) * rate_ / 1e6; }
@@ -63,12 +88,14 @@ class ClockSync {
   // The fit's typical error: the RMS of the kept samples' residuals, us.
   double residual_us() const { return residual_us_; }
 
- private:
+  // One round trip as the fit keeps it.
   struct Sample {
-    double host_us;  // midpoint of the round trip
+    double host_us;  // host time the request was sent
     double ticks;    // unwrapped board ticks
     double rtt_us;
   };
+
+ private:
   void fit();
 
   double nominal_, rate_;
@@ -76,10 +103,13 @@ class ClockSync {
   double residual_us_ = 0;
   std::deque<Sample> samples_;
   int outliers_ = 0;
+  int off_line_ = 0;  // samples off the line in a row: + ahead of it, - behind
   bool has_rate_ = false;
   size_t window_ = kWindow;
   double min_rate_span_s_ = kMinRateSpanS;
   double reset_jump_s_ = kResetJumpS;
+  size_t point_samples_ = kPointSamples;
+  Way way_ = Way::kSendSide;
 };
 
 }  // namespace stepchoir

@@ -26,6 +26,13 @@ constexpr double kQueueFreeAfterS = 0.01;
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;
 constexpr size_t kBoardTimeWindow = 16;
+// Clock round trips this often (us) while syncing before the first note (7 bytes each: a
+// quarter of the link at 115,200 baud).
+constexpr uint64_t kSyncEveryUs = 10000;
+// The timeline follows the clock fit once the fit's samples span this long (s).
+constexpr double kFollowAfterS = 4.0;
+// A USB full-speed frame (us): a bridge may hold host bytes this long.
+constexpr double kUsbFrameUs = 1000;
 
 }  // namespace
 
@@ -51,12 +58,15 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
   if (opt_.loop && !(duration_s_ > 0)) throw std::invalid_argument("player: an empty song cannot loop");
   // A board simulated as fast as it runs changes speed all the time, and is this program's
   // own child: no sample there means a reset.
-  if (opt_.board_time) sync_.set_window(kBoardTimeWindow, 0.02, 1e9);
+  if (opt_.board_time) sync_.set_window(kBoardTimeWindow, 0.02, 1e9, 1);
+  // Sharing the board (jam), the requests wait in the live path's queue before they go out.
+  if (!opt_.exclusive) sync_.set_way(ClockSync::Way::kRoundTrip);
 }
 
 // Called from: everything that writes. One frame; counts it against the link budget (waiting
-// for it when the budget is spent). False when the link failed.
-bool Player::send_payload(const std::vector<uint8_t> &payload) {
+// for it when the budget is spent). sent_us, when given, gets the time just before the write.
+// False when the link failed.
+bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us) {
   const std::vector<uint8_t> wire = frame(payload);
   budget_.refill(monotonic_us());
   while (!budget_.can_send()) {
@@ -64,6 +74,7 @@ bool Player::send_payload(const std::vector<uint8_t> &payload) {
     budget_.refill(monotonic_us());
   }
   bool ok = false;
+  if (sent_us) *sent_us = monotonic_us();
   try {
     ok = board_->link().write(wire.data(), wire.size());
   } catch (const std::exception &) {
@@ -73,16 +84,24 @@ bool Player::send_payload(const std::vector<uint8_t> &payload) {
     return false;
   }
   budget_.spend(wire.size());
+  // The line to the board is busy with this frame's bits, after whatever it still carried,
+  // and the bridge may hold the last of them for a USB frame.
+  const double now = static_cast<double>(monotonic_us());
+  line_free_us_ = std::max(now, line_free_us_) + wire.size() * 10.0 * 1e6 / sc::kBaud + kUsbFrameUs;
   ++stats_.frames_sent;
   return true;
 }
 
 // Called from: the loop and sync_clock. One clock request, its send time kept by sequence.
+// The next one is due a little later each time, by a fraction of a USB frame that never
+// repeats (golden-ratio steps): requests sent on a fixed grid of whole milliseconds would
+// meet the host's 1 ms USB frames at one phase only, and the way out would read as constant.
 void Player::send_clock_request(uint64_t now_us) {
   ++clock_seq_;
-  clock_sent_us_[clock_seq_] = now_us;
-  last_clock_us_ = now_us;
-  send_payload({sc::kMsgClockReq, clock_seq_});
+  dither_ = std::fmod(dither_ + 0.6180339887, 1.0);
+  last_clock_us_ = now_us + static_cast<uint64_t>(dither_ * kUsbFrameUs);
+  clock_sent_us_[clock_seq_] = 0;
+  send_payload({sc::kMsgClockReq, clock_seq_}, &clock_sent_us_[clock_seq_]);
 }
 
 // Called from: the loop. Reads what the board sent within timeout_ms and takes in clock
@@ -116,6 +135,7 @@ bool Player::read_replies(int timeout_ms) {
       ++stats_.clock_samples;
       stats_.ppm = sync_.ppm();
       stats_.residual_us = sync_.residual_us();
+      follow_rate();
     } else if (p[0] == sc::kMsgError && len >= 4) {
       stats_.last_error = p[1];
       if (p[1] == sc::kErrLate)
@@ -129,12 +149,13 @@ bool Player::read_replies(int timeout_ms) {
   return true;
 }
 
-// Called from: run and reconnect. Clock round trips every 10 ms for `seconds` (at least 20),
-// so the first notes already have a fitted offset, and, with need_rate, until the fit has a
-// rate (a second of samples).
+// Called from: run and reconnect. Clock round trips every kSyncEveryUs for `seconds` (at
+// least 20), so the first notes already have a fitted offset, and, with need_rate, until the
+// fit has a rate (a second of samples). Nothing else is on the link meanwhile: the many
+// round trips give each of the fit's points its quickest way out.
 bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
-  const uint64_t step_us = opt_.board_time ? 1000 : 10000;
+  const uint64_t step_us = kSyncEveryUs;
   const uint64_t first = stats_.clock_samples;
   for (int i = 0; !stop.load(); ++i) {
     const uint64_t now = monotonic_us();
@@ -146,7 +167,7 @@ bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> 
       return false;
     }
     send_clock_request(now);
-    const uint64_t until = now + step_us;
+    const uint64_t until = last_clock_us_ + step_us;
     while (monotonic_us() < until)
       if (!read_replies(1)) return false;
     (void)i;
@@ -160,15 +181,32 @@ double Player::score_now(uint64_t now_us) const {
   return anchor_s_ + (sync_.ticks_at(static_cast<double>(now_us)) - anchor_ticks_) / rate_;
 }
 
-// Called from: run (start, resume) and reconnect. Song time score_s plays at board ticks
-// `ticks`, at the fit's rate (nominal in board-time mode).
-void Player::anchor(double score_s, double ticks) {
+// Called from: run (start, resume) and reconnect. Song time score_s plays one lead after
+// now_us, at the fit's rate (nominal in board-time mode or without auto-tune; the rate
+// measured so far when the fit has none yet, as after a reconnect: the same crystal).
+void Player::anchor(double score_s, uint64_t now_us) {
+  if (opt_.board_time || !opt_.auto_tune)
+    rate_ = caps_.f_cpu_hz;
+  else if (sync_.has_rate() || rate_ == 0)
+    rate_ = sync_.ticks_per_s();
   anchor_s_ = score_s;
-  anchor_ticks_ = ticks;
-  rate_ = opt_.board_time || !opt_.auto_tune ? caps_.f_cpu_hz : sync_.ticks_per_s();
+  anchor_ticks_ = sync_.ticks_at(static_cast<double>(now_us)) + opt_.lead_s * rate_;
   stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
+// Called from: read_replies, after each clock sample. With auto-tune in real time, once the
+// fit spans kFollowAfterS (a rate from a shorter span wanders by a few hundred ppm on a busy
+// link; the one measured before the first note stays until then), the timeline and the
+// pitches take the fit's rate from the last entry sent on: that entry
+// keeps its board time (no step in song time, no entry reordered), and the notes not yet sent
+// get their times and periods at the refined rate (a held note keeps its period).
+void Player::follow_rate() {
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || !sync_.has_rate() || sync_.span_s() < kFollowAfterS) return;
+  anchor_ticks_ = event_ticks(sent_score_);
+  anchor_s_ = sent_score_;
+  rate_ = sync_.ticks_per_s();
+  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
+}
 
 // The period of a pitch on this board: from its measured clock rate (auto-tune), so the note
 // sounds right in real time even when its crystal is off.
@@ -200,6 +238,7 @@ bool Player::send_due(uint64_t now_us) {
     for (size_t i = cursor_; i < end; ++i)
       entries.push_back({opt_.motors[events_[i].motor], events_[i].silent ? sc::kPeriodSilent : period_for(events_[i].pitch)});
     if (!send_at(ticks, entries)) return false;
+    sent_score_ = score;
     stats_.min_lead_ms = std::min(stats_.min_lead_ms, (ticks - now_ticks) / caps_.f_cpu_hz * 1e3);
     cursor_ = end;
     if (cursor_ == events_.size() && opt_.loop) {
@@ -224,6 +263,7 @@ bool Player::restore_at(double score_s) {
   std::vector<sc::PeriodEntry> entries;
   for (size_t m = 0; m < pitch.size(); ++m)
     if (pitch[m] >= 0) entries.push_back({opt_.motors[m], period_for(pitch[m])});
+  sent_score_ = score_s;
   return entries.empty() || send_at(event_ticks(score_s), entries);
 }
 
@@ -289,12 +329,9 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   ++stats_.reconnects;
   const uint64_t now = monotonic_us();
   const double at_s = lost_at_s + (now - start) / 1e6 + opt_.lead_s;  // the song went on meanwhile
-  // The same board back (same capabilities): same crystal, so the rate measured so far stays;
-  // the new fit only sets the offset.
-  const double rate = rate_;
-  anchor(at_s, sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate);
-  rate_ = rate;
-  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
+  // The same board back (same capabilities): same crystal, so the rate measured so far stays
+  // until the new fit has one; the new fit sets the offset.
+  anchor(at_s, now);
   return restore_at(at_s);
 }
 
@@ -312,8 +349,9 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     return stop.load();
   }
   const uint64_t begin = monotonic_us();
-  anchor(0.0, 0.0);
-  anchor_ticks_ = sync_.ticks_at(static_cast<double>(begin)) + opt_.lead_s * rate_;
+  anchor(0.0, begin);
+  sent_score_ = 0;
+  playing_ = true;
   const double clock_every_us = (opt_.board_time ? kBoardTimeClockEveryS : opt_.clock_every_s) * 1e6;
   bool paused = false;
   double paused_at = 0;
@@ -334,12 +372,13 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
         paused_at = score_now(now);
         silence();
       } else {  // carry on where it paused, one lead from now
-        anchor(paused_at, 0.0);
-        anchor_ticks_ = sync_.ticks_at(static_cast<double>(now)) + opt_.lead_s * rate_;
+        anchor(paused_at, now);
         if (!restore_at(paused_at)) continue;
       }
     }
-    if (now - last_clock_us_ >= clock_every_us) send_clock_request(now);
+    // A clock request only on an idle line: one queued behind note frames reaches the board
+    // late, and its sample would read the board's clock as ahead.
+    if (now >= last_clock_us_ + clock_every_us && static_cast<double>(now) >= line_free_us_) send_clock_request(now);
     if (!paused && !send_due(now)) continue;
     if (!read_replies(1)) continue;
     now = monotonic_us();

@@ -4,10 +4,13 @@
 //
 // Timeline: the board's clock is the song's clock. Song time s plays at board ticks
 // anchor_ticks + (s - anchor_s) * rate, where rate is the board's tick rate per real second
-// as the clock fit measured it before the first note (its crystal's error included): the
-// notes keep exact time to one another on the board's timer whatever the host or the link do,
-// and the song runs at its real tempo. The rate stays (a crystal does not drift by more than a
-// few ppm over a song; following every wobble of the fit would bend the song's time). Each entry goes
+// as the clock fit measures it (its crystal's error included): the notes keep exact time to
+// one another on the board's timer whatever the host or the link do, and the song runs at its
+// real tempo. The fit keeps refining the rate while the song plays (round trips through a USB
+// bridge are noisy: the first second's rate may be a hundred ppm or more off), and once the
+// fit spans 4 s the timeline follows it phase-continuously: the anchor moves to the last entry sent, which
+// keeps its board time, so song time never steps, and the notes not yet sent take the
+// refined rate for their times and periods (follow_rate). A held note keeps its period. Each entry goes
 // out lead_s before its time, as far as the board's queue (Caps::queue_size entries) has
 // room. The host's scheduling jitter only moves when a frame is sent, never when a note
 // starts. In board-time mode (render, a virtual board simulated as fast as it runs) the
@@ -39,7 +42,7 @@ struct PlayerOptions {
   bool board_time = false;       // render: the board's ticks are the timeline
   double lead_s = 0.3;           // entries go to the board this long before their time
   double sync_s = 1.0;           // clock round trips before the first note (real time)
-  double clock_every_s = 0.02;   // a clock round trip this often while playing (6 bytes)
+  double clock_every_s = 0.01;   // a clock round trip this often while playing (7 bytes)
   bool loop = false;             // start again at the end, seamlessly
   double a4_hz = kA4Hz;
   bool auto_tune = true;         // periods from the measured clock rate (else F_CPU)
@@ -59,7 +62,7 @@ struct PlayerStats {
   uint64_t reconnects = 0;         // board lost (cable, reset) and found again
   double min_lead_ms = 1e9;        // the least time ahead of its start an entry was sent
   double ppm = 0;                  // the board's crystal error, as the clock fit has it now
-  double rate_ppm = 0;             // the crystal error the timeline and the pitches use (the fit's at the start)
+  double rate_ppm = 0;             // the crystal error the timeline and the pitches use now
   double residual_us = 0;          // the clock fit's RMS error
   // The board's own counters at the end (status reply; -1: none came).
   long board_frames_bad = -1, board_overruns = -1;
@@ -100,7 +103,7 @@ class Player {
   Player &operator=(const Player &) = delete;
 
  private:
-  bool send_payload(const std::vector<uint8_t> &payload);
+  bool send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us = nullptr);
   void send_clock_request(uint64_t now_us);
   bool read_replies(int timeout_ms);
   bool sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop);
@@ -126,12 +129,17 @@ class Player {
   LinkBudget budget_;
   uint64_t clock_sent_us_[256] = {};
   uint8_t clock_seq_ = 0;
-  uint64_t last_clock_us_ = 0;
+  uint64_t last_clock_us_ = 0;  // when the last clock request went out, plus its dither
+  double dither_ = 0;           // fraction of a USB frame added to the next request's time
+  double line_free_us_ = 0;  // host time (us) the line to the board has carried what was written
   bool board_lost_ = false, board_restarted_ = false;
   // Timeline (see the top): song time s (in loop k: k * duration + s) plays at board ticks
   // anchor_ticks_ + (s - anchor_s_) * rate_.
   double anchor_s_ = 0, anchor_ticks_ = 0, rate_ = 0;
-  void anchor(double score_s, double ticks);  // sets the timeline
+  void anchor(double score_s, uint64_t now_us);  // sets the timeline: score_s one lead after now
+  void follow_rate();                         // the timeline takes the fit's refined rate
+  double sent_score_ = 0;   // song time of the last entry sent (the pivot for follow_rate)
+  bool playing_ = false;    // the timeline is set: follow_rate may move it
   size_t cursor_ = 0;       // next event to send
   unsigned loop_ = 0;       // loop of the next event
   std::deque<double> queued_ticks_;  // entries the board may still hold (their ticks)

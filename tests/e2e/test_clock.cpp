@@ -1,0 +1,124 @@
+// test_clock.cpp: `stepchoir play` on a virtual board whose crystal is off, end to end: the
+// host's clock fit measures the board's rate through the link (ideal, or a USB bridge's model)
+// and keeps refining it while the song plays, and every note is checked in real time in the
+// trace (the trace's cycles divided by the simulated crystal's real rate).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "e2e_util.h"
+#include "play_checks.h"
+#include "smf_builder.h"
+#include "trace.h"
+
+using namespace stepchoir;
+using namespace play_checks;
+using e2e::scratch;
+
+namespace {
+
+// A format 1 file of `seconds` at 120 bpm: a legato melody in eighths (track 1, channel 1)
+// over a bass in half notes (track 2, channel 2).
+std::string write_long_song(const std::string &name, int seconds) {
+  const uint16_t ppq = 480;
+  smf::Track tempo;
+  tempo.tempo(0, 500000).end(0);
+  smf::Track melody;
+  const int tune[] = {72, 74, 76, 77, 79, 77, 76, 74, 72, 71, 69, 71};
+  const int eighths = seconds * 4;
+  for (int i = 0; i < eighths; ++i) {
+    const uint8_t key = static_cast<uint8_t>(tune[i % 12]);
+    melody.ev(0, {0x90, key, 90}).ev(ppq / 2, {0x80, key, 0});
+  }
+  melody.end(0);
+  smf::Track bass;
+  const int line[] = {48, 43, 45, 41};
+  for (int i = 0; i < seconds; ++i) {
+    const uint8_t key = static_cast<uint8_t>(line[i % 4]);
+    bass.ev(0, {0x91, key, 80}).ev(2 * ppq - 60, {0x81, key, 0}).ev(60, {0xB1, 7, 100});
+  }
+  bass.end(0);
+  const auto bytes = smf::file(1, ppq, {tempo, melody, bass});
+  const std::string path = scratch(name);
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char *>(bytes.data()),
+                                               static_cast<std::streamsize>(bytes.size()));
+  return path;
+}
+
+// A 12 s song on a board met for the first time, its crystal ppm off, over `link`, checked in
+// real time from the trace. From 10 s on: every note within 0.1 cent, onsets within 0.5 ms
+// of that part's line (99 %). With from_2s, the same from 2 s on with 0.5 cent, and the
+// tempo within 100 ppm. (Not check_song's 0.05 cent between notes: the rate the notes take is
+// refined as the song goes on.)
+void check_refined(const std::string &link, const std::string &ppm, bool from_2s) {
+  const std::string name = "clock-" + link + ppm;
+  const std::string song = write_long_song(name + ".mid", 12);
+  const std::string trace_path = scratch(name + ".csv");
+  int status = -1;
+  const std::string out = run_stepchoir({"play", song, "--tracks", "1,2", "--vboard", "uno", "--vboard-link", link,
+                                         "--clock-ppm", ppm, "--vboard-trace", trace_path, "--quiet"},
+                                        &status);
+  INFO(out);
+  REQUIRE(status == 0);
+  const auto t = sc::trace::read_trace(trace_path);
+  require_real_time(t);
+  REQUIRE(t.clock_ppm == Approx(std::stod(ppm)));
+  bool on_link = false;  // the board's summary names the link model it ran
+  for (const std::string &line : t.summary_lines) on_link |= line.find(" link_model=" + link + " ") != std::string::npos;
+  REQUIRE(on_link);
+  const Plan plan = plan_for(song, static_cast<size_t>(t.motors), 1.0, {1, 2});
+  REQUIRE(plan.notes.size() == 48 + 12);
+  const std::string what = "clock, " + link + " link, crystal " + ppm + " ppm";
+  const sc::trace::ScoreCheck early = check_played(t, plan, 2.0);
+  print_figures((what + ", from 2 s").c_str(), early);
+  const sc::trace::ScoreCheck late = check_played(t, plan, 10.0);
+  print_figures((what + ", from 10 s").c_str(), late);
+  INFO(late.first_problem);
+  CHECK(late.found == late.notes);
+  CHECK(pct(late.onset_err_us, 0.99) < 500.0);
+  CHECK(late.max_cents < 0.1);
+  if (!from_2s) return;
+  INFO(early.first_problem);
+  CHECK(early.found == early.notes);
+  CHECK(pct(early.onset_err_us, 0.99) < 500.0);
+  CHECK(early.max_cents < 0.5);
+  CHECK(std::fabs(early.tempo_ppm) < 100.0);
+}
+
+}  // namespace
+
+TEST_CASE("clock: a crystal 0.5 % slow on the ideal link - in tune from 2 s, within 0.1 cent after 10 s (auto-tune)",
+          "[play][clock][pacing]") {
+  check_refined("ideal", "-5000", true);
+}
+
+// Behind a USB bridge model the notes of the first seconds sometimes sit about 1 ms off the
+// line the rest follows (cause not found yet: docs/usb-bridges.md): from 10 s on only.
+TEST_CASE("clock: a crystal 0.5 % fast behind a 16U2 bridge - within 0.1 cent after 10 s (auto-tune)",
+          "[play][clock][pacing]") {
+  check_refined("16u2", "5000", false);
+}
+
+TEST_CASE("clock: a crystal 0.5 % slow behind an FTDI bridge - within 0.1 cent after 10 s (auto-tune)",
+          "[play][clock][pacing]") {
+  check_refined("ftdi", "-5000", false);
+}
+
+TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the check can fail)", "[play][pacing]") {
+  const std::string song = write_test_song("play-notune.mid");
+  const std::string trace_path = scratch("play-notune.csv");
+  int status = -1;
+  const std::string out = run_stepchoir(
+      {"play", song, "--tracks", "1,2", "--vboard", "uno", "--clock-ppm", "5000", "--no-auto-tune", "--vboard-trace",
+       trace_path, "--quiet"},
+      &status);
+  REQUIRE(status == 0);
+  const auto t = sc::trace::read_trace(trace_path);
+  require_real_time(t);
+  const sc::trace::ScoreCheck c = check_played(t, plan_for(song, static_cast<size_t>(t.motors), 1.0, {1, 2}));
+  CHECK(c.max_cents == Approx(1200 * std::log2(1.005)).margin(1.0));
+  CHECK(c.max_spread_cents < 0.05);
+}
