@@ -109,7 +109,8 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   // (1.4 s) both times.
   auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--quiet"});
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--tempo", "0.5", "--port", link, "--quiet"}, true);
-  std::this_thread::sleep_for(std::chrono::milliseconds(3200));  // the bootloader, a second of sync, then into the song
+  // the bootloader, one or two seconds of sync (until the rate is within 30 ppm), then into the song
+  std::this_thread::sleep_for(std::chrono::milliseconds(3600));
   vb.reset();  // the board goes away (SIGTERM: power off) ...
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   vb = std::make_unique<VboardProcess>(
@@ -348,7 +349,10 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   // The song: every note of its plan on motors 0 and 1, on time and in tune, nothing else there.
   const Plan plan = plan_for(song, 2, 1.0, {1, 2});
   REQUIRE(plan.unplayed.empty());
-  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan);
+  // Jam keeps the rate it measured before the first note: its round trips pass through the
+  // live path's queue (notes in tune with one another; their absolute pitch is up to about
+  // 2 cents off on a busy run).
+  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan, 0, true);
   CHECK(c.max_release_late_us < 100.0);
   // The keyboard: each key's note on motor 2 or 3 at its pitch, for about as long as it was held.
   std::vector<sc::trace::NoteSegment> live;

@@ -56,6 +56,7 @@ void ClockSync::reset() {
   rate_ = nominal_;
   has_rate_ = false;
   origin_us_ = offset_ticks_ = residual_us_ = 0;
+  rate_sigma_ppm_ = 1e6;
   outliers_ = off_line_ = 0;
 }
 
@@ -74,7 +75,7 @@ struct Point {
 
 // Least-squares line ticks = mean_t + slope * (host - mean_h) through the points kept.
 struct Line {
-  double n = 0, mean_h = 0, mean_t = 0, slope = 0, span_us = 0;
+  double n = 0, mean_h = 0, mean_t = 0, slope = 0, span_us = 0, sxx = 0;
   double at(double host_us) const { return mean_t + slope * (host_us - mean_h); }
 };
 
@@ -100,6 +101,7 @@ Line fit_line(const std::vector<Point> &points, const std::vector<bool> &keep, d
     sxy += (points[i].host_us - l.mean_h) * (points[i].ticks - l.mean_t);
   }
   l.slope = l.n >= 3 && sxx > 0 ? sxy / sxx : fallback_slope;
+  l.sxx = sxx;
   return l;
 }
 
@@ -114,29 +116,33 @@ double median(std::vector<double> v) {
 // within kRttSlackUs of the quickest (a request held up on its way out, in the host's queue or
 // behind other frames, lengthens its round trip), the one whose board time is furthest ahead
 // of its send time (the request's way out varies by up to a USB frame, the reply's by a
-// bridge's whole batching time, and a board that fell behind only lags); with kRoundTrip, the
-// quickest round trip at its midpoint. A line through them; points off it by more than four times
+// bridge's whole batching time, and a board that fell behind only lags); with kRoundTrip,
+// every sample whose round trip is among the quickest quarter (or within 100 us of the
+// quickest), at its midpoint. A line through them; points off it by more than four times
 // their typical distance (at least kTrimMinUs) are left out and the line fitted again,
 // twice. The rate is taken once the points span min_rate_span_s.
 void ClockSync::fit() {
   const double per_us = rate_ / 1e6;
   std::vector<Point> points;
-  for (size_t first = 0; first < samples_.size(); first += point_samples_) {
+  if (way_ == Way::kRoundTrip) {  // every sample of about the quickest round trips, at its midpoint
+    std::vector<double> rtts;
+    for (const Sample &s : samples_) rtts.push_back(s.rtt_us);
+    std::nth_element(rtts.begin(), rtts.begin() + static_cast<std::ptrdiff_t>(rtts.size() / 4), rtts.end());
+    const double limit = std::max(rtts[rtts.size() / 4], min_rtt_us() + 100.0);
+    for (const Sample &s : samples_)
+      if (s.rtt_us <= limit) points.push_back({s.host_us + s.rtt_us / 2, s.ticks});
+  }
+  for (size_t first = 0; way_ == Way::kSendSide && first < samples_.size(); first += point_samples_) {
     const size_t end = std::min(samples_.size(), first + point_samples_);
     double quickest = samples_[first].rtt_us;
     for (size_t i = first; i < end; ++i) quickest = std::min(quickest, samples_[i].rtt_us);
     const Sample *best = nullptr;
     for (size_t i = first; i < end; ++i) {
       const Sample &s = samples_[i];
-      if (way_ == Way::kRoundTrip) {  // the quickest round trip, at its midpoint
-        if (s.rtt_us == quickest && !best) best = &s;
-        continue;
-      }
       if (s.rtt_us > quickest + kRttSlackUs) continue;
       if (!best || s.ticks - s.host_us * per_us > best->ticks - best->host_us * per_us) best = &s;
     }
-    const double at = way_ == Way::kRoundTrip ? best->host_us + best->rtt_us / 2 : best->host_us;
-    points.push_back({at, best->ticks});
+    points.push_back({best->host_us, best->ticks});
   }
   std::vector<bool> kept(points.size(), true);
   Line l = fit_line(points, kept, per_us);
@@ -165,6 +171,7 @@ void ClockSync::fit() {
     sq += e_us * e_us;
   }
   residual_us_ = std::sqrt(sq / l.n);
+  rate_sigma_ppm_ = has_rate_ && l.n >= 3 && l.sxx > 0 ? residual_us_ / std::sqrt(l.sxx) * 1e6 : 1e6;
 }
 
 }  // namespace stepchoir

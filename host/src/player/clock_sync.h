@@ -62,7 +62,7 @@ class ClockSync {
   // Which way of the round trip the fit trusts. kSendSide: the request's (a direct link, where
   // a reply may wait for a bridge's whole batching time); ticks_at is then the board's time as
   // a request sent then reaches it. kRoundTrip: neither (the request waits in another
-  // thread's queue, as in jam): the quickest round trip of each point, at its midpoint.
+  // thread's queue, as in jam): the quickest round trips, at their midpoints.
   enum class Way { kSendSide, kRoundTrip };
   // Called from: the player, before the first sample.
   void set_way(Way way) { way_ = way; }
@@ -85,8 +85,11 @@ class ClockSync {
   double ppm() const { return (rate_ / nominal_ - 1.0) * 1e6; }
   // Shortest round trip seen in the window, us.
   double min_rtt_us() const;
-  // The fit's typical error: the RMS of the kept samples' residuals, us.
+  // The fit's typical error: the RMS of the kept points' residuals, us.
   double residual_us() const { return residual_us_; }
+  // The rate's standard error, ppm (the residuals over the points' spread in time; 1e6 until
+  // the rate is fitted).
+  double rate_sigma_ppm() const { return rate_sigma_ppm_; }
 
   // One round trip as the fit keeps it.
   struct Sample {
@@ -101,6 +104,7 @@ class ClockSync {
   double nominal_, rate_;
   double origin_us_ = 0, offset_ticks_ = 0;  // the line passes through (origin_us_, offset_ticks_)
   double residual_us_ = 0;
+  double rate_sigma_ppm_ = 1e6;
   std::deque<Sample> samples_;
   int outliers_ = 0;
   int off_line_ = 0;  // samples off the line in a row: + ahead of it, - behind

@@ -29,8 +29,10 @@ constexpr size_t kBoardTimeWindow = 16;
 // Clock round trips this often (us) while syncing before the first note (7 bytes each: a
 // quarter of the link at 115,200 baud).
 constexpr uint64_t kSyncEveryUs = 10000;
-// The timeline follows the clock fit once the fit's samples span this long (s).
-constexpr double kFollowAfterS = 4.0;
+// The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent);
+// before the first note the sync waits up to kSyncLongerS (s) longer for it.
+constexpr double kRateSigmaPpm = 30.0;
+constexpr double kSyncLongerS = 1.0;
 // A USB full-speed frame (us): a bridge may hold host bytes this long.
 constexpr double kUsbFrameUs = 1000;
 
@@ -151,7 +153,8 @@ bool Player::read_replies(int timeout_ms) {
 
 // Called from: run and reconnect. Clock round trips every kSyncEveryUs for `seconds` (at
 // least 20), so the first notes already have a fitted offset, and, with need_rate, until the
-// fit has a rate (a second of samples). Nothing else is on the link meanwhile: the many
+// fit has a rate within kRateSigmaPpm (a second of samples on a quiet link, a few behind a
+// USB bridge; kSyncLongerS more at most). Nothing else is on the link meanwhile: the many
 // round trips give each of the fit's points its quickest way out.
 bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
@@ -159,10 +162,12 @@ bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> 
   const uint64_t first = stats_.clock_samples;
   for (int i = 0; !stop.load(); ++i) {
     const uint64_t now = monotonic_us();
+    const bool rate_ok = sync_.has_rate() && (!opt_.exclusive || sync_.rate_sigma_ppm() <= kRateSigmaPpm ||
+                                              now - start >= (seconds + kSyncLongerS) * 1e6);
     if (now - start >= seconds * 1e6 && stats_.clock_samples - first >= 20 &&
-        (!need_rate || opt_.board_time || sync_.has_rate()))
+        (!need_rate || opt_.board_time || rate_ok))
       return true;
-    if (now - start > 5e6 + seconds * 1e6) {
+    if (now - start > (seconds + kSyncLongerS + 5) * 1e6) {
       error_ = board_->link().name() + ": the board does not answer clock requests";
       return false;
     }
@@ -194,14 +199,17 @@ void Player::anchor(double score_s, uint64_t now_us) {
   stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
-// Called from: read_replies, after each clock sample. With auto-tune in real time, once the
-// fit spans kFollowAfterS (a rate from a shorter span wanders by a few hundred ppm on a busy
-// link; the one measured before the first note stays until then), the timeline and the
-// pitches take the fit's rate from the last entry sent on: that entry
+// Called from: read_replies, after each clock sample. With auto-tune in real time, while the
+// fit's rate is within kRateSigmaPpm (a wider one wanders by a few hundred ppm on a busy link;
+// the rate the timeline has stays meanwhile; and not in jam, whose round trips pass through
+// the live path's queue and give no rate that precise), the timeline and the pitches take it from the
+// last entry sent on: that entry
 // keeps its board time (no step in song time, no entry reordered), and the notes not yet sent
 // get their times and periods at the refined rate (a held note keeps its period).
 void Player::follow_rate() {
-  if (!playing_ || opt_.board_time || !opt_.auto_tune || !sync_.has_rate() || sync_.span_s() < kFollowAfterS) return;
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || !sync_.has_rate() ||
+      sync_.rate_sigma_ppm() > kRateSigmaPpm)
+    return;
   anchor_ticks_ = event_ticks(sent_score_);
   anchor_s_ = sent_score_;
   rate_ = sync_.ticks_per_s();
