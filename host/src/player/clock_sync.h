@@ -70,8 +70,6 @@ class ClockSync {
   // True once a sample is in (before that, ticks_at is meaningless).
   bool ready() const { return !samples_.empty(); }
   size_t samples() const { return samples_.size(); }
-  // Host time the samples in the window span, seconds.
-  double span_s() const { return samples_.empty() ? 0 : (samples_.back().host_us - samples_.front().host_us) / 1e6; }
 
   // The board's unwrapped tick count at a host time (us). Called from: the player.
   double ticks_at(double host_us) const { return offset_ticks_ + (host_us - origin_us_) * rate_ / 1e6; }
