@@ -26,9 +26,10 @@ constexpr double kQueueFreeAfterS = 0.01;
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;
 constexpr size_t kBoardTimeWindow = 16;
-// Clock round trips this often (us) while syncing before the first note (7 bytes each: a
-// quarter of the link at 115,200 baud).
+// Clock round trips this often (us) while syncing before the first note (7 bytes each, under
+// 1 % of the link); in board-time mode, where the board runs faster than real time, this often.
 constexpr uint64_t kSyncEveryUs = 10000;
+constexpr uint64_t kBoardTimeSyncEveryUs = 1000;
 // The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent);
 // before the first note the sync waits up to kSyncLongerS (s) longer for it.
 constexpr double kRateSigmaPpm = 30.0;
@@ -158,7 +159,7 @@ bool Player::read_replies(int timeout_ms) {
 // round trips give each of the fit's points its quickest way out.
 bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
-  const uint64_t step_us = kSyncEveryUs;
+  const uint64_t step_us = opt_.board_time ? kBoardTimeSyncEveryUs : kSyncEveryUs;
   const uint64_t first = stats_.clock_samples;
   for (int i = 0; !stop.load(); ++i) {
     const uint64_t now = monotonic_us();
@@ -202,10 +203,10 @@ void Player::anchor(double score_s, uint64_t now_us) {
 // Called from: read_replies, after each clock sample. With auto-tune in real time, while the
 // fit's rate is within kRateSigmaPpm (a wider one wanders by a few hundred ppm on a busy link;
 // the rate the timeline has stays meanwhile; and not in jam, whose round trips pass through
-// the live path's queue and give no rate that precise), the timeline and the pitches take it from the
-// last entry sent on: that entry
-// keeps its board time (no step in song time, no entry reordered), and the notes not yet sent
-// get their times and periods at the refined rate (a held note keeps its period).
+// the live path's queue and give no rate that precise), the timeline and the pitches take it
+// from the last entry sent on: that entry keeps its board time (no step in song time, no
+// entry reordered), and the notes not yet sent get their times and periods at the refined
+// rate (a held note keeps its period).
 void Player::follow_rate() {
   if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || !sync_.has_rate() ||
       sync_.rate_sigma_ppm() > kRateSigmaPpm)
