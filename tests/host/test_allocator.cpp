@@ -960,3 +960,35 @@ TEST_CASE("a bend or tuning past what a board plays folds by octaves into its pe
   CHECK(std::abs(octaves - std::round(octaves)) < 1e-6);
   CHECK(std::round(octaves) < 0);
 }
+
+TEST_CASE("percussion channels are not sung: channel 10, and a drum kit chosen by bank select") {
+  Rig r(poly(4));
+  auto program = [&](uint8_t ch, uint8_t bank) {
+    r.cc(ch, kCcBankSelectMsb, bank);
+    r.send(MidiEvent{static_cast<uint8_t>(kMidiProgramChange | ch), 0, 0, 0});
+  };
+  CHECK(r.on(kGmDrumChannel, 36).empty());  // a kick: no motor
+  CHECK(r.sounding() == 0);
+  CHECK(r.on(2, 60).size() == 1);
+  // GM2: bank 120 makes channel 3 a drum kit at its program change; the note it holds is
+  // still released by its note-off.
+  program(2, kBankGm2Rhythm);
+  CHECK(r.on(2, 38).empty());
+  CHECK(r.off(2, 60).size() == 1);
+  CHECK(r.sounding() == 0);
+  // Bank 121 makes channel 10 melodic.
+  program(kGmDrumChannel, kBankGm2Melody);
+  CHECK(r.on(kGmDrumChannel, 64).size() == 1);
+  // A bank select without a program change changes nothing.
+  r.cc(kGmDrumChannel, kCcBankSelectMsb, kBankXgDrums);
+  CHECK(r.on(kGmDrumChannel, 67).size() == 1);
+  // A reset forgets the kits: channel 10 is drums again.
+  AllocatorConfig c = poly(4);
+  REQUIRE(r.a.configure(c));
+  r.send(MidiEvent{kMidiControlChange, kCcAllSoundOff, 0, 0});
+  CHECK(r.on(kGmDrumChannel, 36).empty());
+  // sing_percussion: drum channels play pitches, as any channel.
+  c.sing_percussion = true;
+  REQUIRE(r.a.configure(c));
+  CHECK(r.on(kGmDrumChannel, 36).size() == 1);
+}

@@ -31,6 +31,8 @@ TEST_CASE("config: the printed default loads to the defaults", "[config]") {
   CHECK(c.midi_api == d.midi_api);
   CHECK(c.policy == d.policy);
   CHECK(c.priority == d.priority);
+  CHECK(c.sing_percussion == d.sing_percussion);
+  CHECK_FALSE(c.sing_percussion);
   CHECK(c.a4_hz == d.a4_hz);
   CHECK(c.boards.empty());
 }
@@ -75,6 +77,7 @@ api = "jack"
 [allocation]
 policy = "channel"
 priority = "highest"
+sing_percussion = true
 [[boards]]
 port = "/dev/ttyACM1"
 [[boards.motors]]
@@ -106,6 +109,7 @@ port = "/dev/ttyACM2"
   CHECK(c.midi_api == "jack");
   CHECK(c.policy == Policy::kChannel);
   CHECK(c.priority == Priority::kHighest);
+  CHECK(c.sing_percussion);
   REQUIRE(c.boards.size() == 2);
   CHECK(c.boards[1].port == "/dev/ttyACM2");
   REQUIRE(c.boards[0].motors.size() == 2);
@@ -162,6 +166,7 @@ TEST_CASE("config: mistakes name the file, line and what is wrong", "[config]") 
   CHECK(error_of("a4_hz = 442\npolicy = \"poly\"\n").find("unknown key 'policy' in the top level") != std::string::npos);
   CHECK(error_of("[allocation]\npolicy = \"round-robin\"\n").find("f.toml:2:") == 0);
   CHECK(error_of("[allocation]\npolicy = \"round-robin\"\n").find("expected poly, channel or mono") != std::string::npos);
+  CHECK(error_of("[allocation]\nsing_percussion = 1\n") == "f.toml:2:19: sing_percussion: expected true or false");
   CHECK(error_of("a4_hz = \"440\"\n").find("a4_hz: expected a number") != std::string::npos);
   CHECK(error_of("a4_hz = 5000\n").find("a4_hz: must be") != std::string::npos);
   CHECK(error_of("[[boards]]\n[[boards.motors]]\nmicrosteps = 12\n").find("f.toml:3:") == 0);

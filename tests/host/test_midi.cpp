@@ -225,3 +225,27 @@ TEST_CASE("midi: an absurd header track count with a short file is an error, not
   smf::Bytes f = {'M', 'T', 'h', 'd', 0, 0, 0, 6, 0, 1, 0xFF, 0xFF, 0, 96};
   CHECK(error_of(f) == "t.mid: byte 14: the header declares 65535 tracks but the file has 0");
 }
+
+TEST_CASE("midi: drum hits by channel 10 and by bank select, and track names") {
+  Track tempo, a, b;
+  // Track 0 is named by its Sequence/Track Name, track 1 by its Instrument Name alone.
+  tempo.ev(0, {0xFF, 0x03, 4, 'S', 'o', 'n', 'g'}).end();
+  a.ev(0, {0xFF, 0x04, 7, ' ', 'L', 'e', 'a', 'd', ' ', 0x01});
+  a.ev(0, {0x99, 36, 100}).ev(100, {0x89, 36, 0});  // channel 10: a kick
+  a.ev(0, {0x92, 60, 100}).ev(100, {0x82, 60, 0});  // channel 3: a pitch
+  // GM2: bank 120 then a program change makes channel 3 a drum kit; bank 121 makes channel 10
+  // melodic. A bank select alone changes nothing until the program change.
+  a.ev(0, {0xB2, 0, 120}).ev(0, {0x92, 62, 100}).ev(100, {0x82, 62, 0});
+  a.ev(0, {0xC2, 0}).ev(0, {0x92, 38, 100}).ev(100, {0x82, 38, 0});
+  a.ev(0, {0xB9, 0, 121}).ev(0, {0xC9, 0}).ev(0, {0x99, 64, 100}).ev(100, {0x89, 64, 0}).end();
+  const Song s = read(smf::file(1, 100, {tempo, a}));
+  REQUIRE(s.notes.size() == 5);
+  CHECK(s.notes[0].percussion);        // channel 10
+  CHECK_FALSE(s.notes[1].percussion);  // channel 3
+  CHECK_FALSE(s.notes[2].percussion);  // bank chosen, no program change yet
+  CHECK(s.notes[3].percussion);        // GM2 rhythm bank
+  CHECK_FALSE(s.notes[4].percussion);  // GM2 melody bank on channel 10
+  REQUIRE(s.track_names.size() == 2);
+  CHECK(s.track_names[0] == "Song");
+  CHECK(s.track_names[1] == "Lead");  // trimmed, the control byte left out
+}

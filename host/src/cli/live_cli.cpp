@@ -184,6 +184,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   }
   AllocatorConfig alloc = pool_config(pool, policy);
   alloc.priority = cfg.priority;
+  alloc.sing_percussion = cfg.sing_percussion;
   alloc.a4_hz = cfg.a4_hz;
   for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b)
     for (size_t m = 0; b < cfg.boards.size() && m < cfg.boards[b].motors.size() && m < pool[b].motor_count; ++m) {

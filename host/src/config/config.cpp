@@ -186,7 +186,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
   if (const toml::node *n = root.get("allocation")) {
     const toml::table *t = n->as_table();
     if (!t) fail(source, *n, "[allocation] must be a table");
-    known_keys(source, *t, {"policy", "priority"}, "[allocation]");
+    known_keys(source, *t, {"policy", "priority", "sing_percussion"}, "[allocation]");
     try {
       c.policy = parse_policy(get_string(source, *t, "policy", "poly"));
     } catch (const std::invalid_argument &e) {
@@ -197,6 +197,10 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     else if (priority == "lowest") c.priority = Priority::kLowest;
     else if (priority == "highest") c.priority = Priority::kHighest;
     else fail(source, *t->get("priority"), "priority '" + priority + "': expected oldest, lowest or highest");
+    if (const toml::node *sp = t->get("sing_percussion")) {
+      if (!sp->is_boolean()) fail(source, *sp, "sing_percussion: expected true or false");
+      c.sing_percussion = sp->value_or(false);
+    }
   }
   if (const toml::node *n = root.get("boards")) {
     const toml::array *boards = n->as_array();
@@ -251,6 +255,9 @@ api = "alsa"
 policy = "poly"
 # poly, when every motor is busy: steal the "oldest" note, or keep the "lowest" / "highest".
 priority = "oldest"
+# Drum channels (General MIDI channel 10, or a channel whose bank select chose a drum kit) play
+# hits, not pitches: their notes are ignored unless this is true.
+sing_percussion = false
 
 # One [[boards]] table per board, in order: their motors form one pool. With no board and no
 # --port, `stepchoir live` starts the virtual board.

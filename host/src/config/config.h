@@ -33,6 +33,7 @@ struct LiveConfig {
   std::string midi_api = "alsa";
   Policy policy = Policy::kPoly;
   Priority priority = Priority::kOldest;
+  bool sing_percussion = false;  // [allocation] sing_percussion: drum channels' notes as pitches
   double a4_hz = kA4Hz;
   std::vector<BoardSettings> boards;
 };

@@ -19,9 +19,11 @@ struct MidiEvent {
 constexpr uint8_t kMidiNoteOff = 0x80;
 constexpr uint8_t kMidiNoteOn = 0x90;
 constexpr uint8_t kMidiControlChange = 0xB0;
+constexpr uint8_t kMidiProgramChange = 0xC0;
 constexpr uint8_t kMidiPitchBend = 0xE0;
 
 // Controller numbers (data1 of a control change) the engine understands.
+constexpr uint8_t kCcBankSelectMsb = 0;
 constexpr uint8_t kCcDataEntryMsb = 6;
 constexpr uint8_t kCcDataEntryLsb = 38;
 constexpr uint8_t kCcSustain = 64;
@@ -32,6 +34,23 @@ constexpr uint8_t kCcRpnMsb = 101;
 constexpr uint8_t kCcAllSoundOff = 120;
 constexpr uint8_t kCcResetAllControllers = 121;
 constexpr uint8_t kCcAllNotesOff = 123;
+
+// Percussion: General MIDI's drum channel (0-based; channel 10 as musicians count), and the
+// bank select (CC0) values that make any channel a drum kit (GM2 rhythm bank, XG drum bank) or
+// a melodic one again (GM2 melody bank). A bank select takes effect at the channel's next
+// program change.
+constexpr uint8_t kGmDrumChannel = 9;
+constexpr uint8_t kBankGm2Rhythm = 120;
+constexpr uint8_t kBankGm2Melody = 121;
+constexpr uint8_t kBankXgDrums = 127;
+
+// Whether a channel plays drums after a program change with bank MSB bank. Called from: the
+// MIDI file reader and the live allocator.
+constexpr bool percussion_bank(uint8_t channel, uint8_t bank) {
+  return bank == kBankGm2Rhythm || bank == kBankXgDrums ? true
+         : bank == kBankGm2Melody                     ? false
+                                                      : channel == kGmDrumChannel;
+}
 
 // Builders, mostly for tests and tools. channel is 0-15.
 constexpr MidiEvent note_on(uint8_t channel, uint8_t note, uint8_t velocity, uint64_t t_us = 0) {

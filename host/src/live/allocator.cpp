@@ -46,6 +46,7 @@ bool Allocator::configure(const AllocatorConfig &config) noexcept {
 void Allocator::reset_state() noexcept {
   voices_.fill(Voice{});
   channels_.fill(Channel{});
+  channels_[kGmDrumChannel].percussion = true;
   for (size_t m = 0; m < kMaxMotors; ++m) {
     owner_[m] = kNone;
     if (m >= config_.motor_count) continue;
@@ -63,14 +64,15 @@ size_t Allocator::handle(const MidiEvent &e, sc::PeriodEntry *out, size_t max_ou
       case kMidiNoteOff: note_off(ch, e.data1); break;
       case kMidiNoteOn:
         if (e.data2 == 0) note_off(ch, e.data1);
-        else note_on(ch, e.data1);
+        else if (!channels_[ch].percussion || config_.sing_percussion) note_on(ch, e.data1);
         break;
+      case kMidiProgramChange: channels_[ch].percussion = percussion_bank(ch, channels_[ch].bank); break;
       case kMidiControlChange: control_change(ch, e.data1, e.data2); break;
       case kMidiPitchBend:
         channels_[ch].bend = static_cast<uint16_t>(e.data1 | (e.data2 << 7));
         retune_channel(ch);
         break;
-      default: break;  // aftertouch, program change: nothing to do
+      default: break;  // aftertouch: nothing to do
     }
   }
   return flush(out, max_out);
@@ -335,6 +337,7 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
   Channel &c = channels_[ch];
   switch (cc) {
     case kCcSustain: set_pedal(ch, value >= 64); break;
+    case kCcBankSelectMsb: c.bank = value; break;
     case kCcRpnMsb: c.rpn_msb = value; break;
     case kCcRpnLsb: c.rpn_lsb = value; break;
     case kCcNrpnMsb:

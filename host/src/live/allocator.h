@@ -27,6 +27,11 @@
 // range; in kPoly a motor that plays the note unfolded is preferred to one that must fold it.
 // A motor that cannot play a note at all (every octave of it muted) does not take it.
 //
+// Percussion: General MIDI channel 10, and any channel whose bank select (CC0 120 or 127, then a
+// program change) chose a drum kit, plays drum hits, not pitches. Their notes are ignored
+// unless AllocatorConfig::sing_percussion is set (CC0 121 and a program change make a channel
+// melodic again).
+//
 // MIDI handled, per channel: note on/off (velocity 0 = off), sustain pedal (CC64), pitch bend
 // with a per-channel range (RPN 0 through CC101/100 + CC6/38), all-sound-off (CC120),
 // reset-all-controllers (CC121), all-notes-off (CC123; CC124-127 imply it, as MIDI says).
@@ -76,6 +81,7 @@ struct AllocatorConfig {
   uint8_t motor_count = 1;  // 1 .. kMaxMotors
   Policy policy = Policy::kPoly;
   Priority priority = Priority::kOldest;
+  bool sing_percussion = false;  // true: percussion channels' notes take motors as pitches
   double a4_hz = kA4Hz;     // tuning reference for every motor
   std::array<MotorConfig, kMaxMotors> motors{};
   // kMono only: the channel (0-15) whose group motor m belongs to, or -1 for none.
@@ -170,6 +176,8 @@ class Allocator {
     uint16_t bend = kBendCentre;
     uint8_t range_semitones = kDefaultBendRange, range_cents = 0;
     uint8_t rpn_msb = 127, rpn_lsb = 127;  // selected RPN; 127/127 = none
+    uint8_t bank = 0;                      // bank select MSB, taken at the next program change
+    bool percussion = false;               // a drum kit: its notes are hits, not pitches
     // kMono/kChannel note memory: keys in press order, most recent last, no duplicates;
     // key_up marks keys released while the pedal was down (they still count).
     std::array<uint8_t, 128> keys{};

@@ -13,11 +13,22 @@ namespace {
 constexpr uint32_t kDefaultTempoUsPerQn = 500000;  // 120 bpm until the first Set Tempo
 constexpr uint8_t kMetaEndOfTrack = 0x2F;
 constexpr uint8_t kMetaSetTempo = 0x51;
+constexpr uint8_t kMetaTrackName = 0x03;       // Sequence/Track Name
+constexpr uint8_t kMetaInstrumentName = 0x04;
+constexpr size_t kMaxTrackNameChars = 64;      // longer names are cut
 
 // A tempo change at a tick, from any track.
 struct TempoChange {
   uint64_t tick;
   uint32_t us_per_qn;
+};
+
+// A bank select (CC0) or program change on a channel: which of a channel's notes are drum hits
+// follows from these, replayed in time order across tracks.
+struct BankEvent {
+  uint64_t tick;
+  uint8_t channel;
+  int16_t bank;       // CC0 value, or -1 for a program change
 };
 
 // A note with its ends in ticks, before the tempo map turns them into seconds.
@@ -55,6 +66,8 @@ class MidiParser {
              " bytes left)");
       if (std::memcmp(type, "MTrk", 4) == 0) {
         track_ = tracks_read;
+        names_.emplace_back();
+        instruments_.emplace_back();
         if (tracks_read++ == declared_tracks_)
           fail("more MTrk chunks than the " + std::to_string(declared_tracks_) + " the header declares");
         track(pos_ + len);  // leaves pos_ at the chunk's end
@@ -84,6 +97,8 @@ class MidiParser {
   double smpte_s_per_tick_ = 0;   // seconds per tick with SMPTE division
   std::vector<TempoChange> tempos_;
   std::vector<TickNote> notes_;
+  std::vector<BankEvent> banks_;
+  std::vector<std::string> names_, instruments_;  // per track read so far
   uint64_t end_tick_ = 0;          // latest End of Track
   size_t unmatched_offs_ = 0, unterminated_ = 0, skipped_chunks_ = 0, zero_length_ = 0;
   std::vector<uint32_t> open_[16 * 128];  // per channel and note: indexes into notes_ of sounding notes
@@ -161,6 +176,16 @@ class MidiParser {
     return d_[pos_++];
   }
 
+  // A name from a meta event: printable ASCII, spaces trimmed, at most kMaxTrackNameChars.
+  // Called by track.
+  static std::string printable(const uint8_t *p, size_t len) {
+    std::string out;
+    for (size_t i = 0; i < len && out.size() < kMaxTrackNameChars; ++i)
+      if (p[i] >= 0x20 && p[i] < 0x7F) out += static_cast<char>(p[i]);
+    while (!out.empty() && out.back() == ' ') out.pop_back();
+    return out.substr(std::min(out.size(), out.find_first_not_of(' ')));
+  }
+
   // Formats a byte as 0xNN. Called by messages.
   static std::string hex(uint8_t b) {
     static const char *digits = "0123456789ABCDEF";
@@ -187,8 +212,11 @@ class MidiParser {
         running = status;
         const uint8_t type = status & 0xF0, channel = status & 0x0F;
         const uint8_t a = data_byte(end);
-        if (type == 0xC0 || type == 0xD0) continue;
+        if (type == kMidiProgramChange) banks_.push_back({tick, channel, -1});
+        if (type == kMidiProgramChange || type == 0xD0) continue;
         const uint8_t b = data_byte(end);
+        if (type == kMidiControlChange && a == kCcBankSelectMsb)
+          banks_.push_back({tick, channel, b});
         if (type == 0x90 && b > 0) note_on(tick, channel, a, b);
         else if (type == 0x80 || type == 0x90) note_off(tick, channel, a);
       } else if (status == 0xFF) {
@@ -202,6 +230,10 @@ class MidiParser {
           const uint32_t us = uint32_t{d_[pos_]} << 16 | uint32_t{d_[pos_ + 1]} << 8 | d_[pos_ + 2];
           if (us == 0) fail_at(event_at, "Set Tempo of 0 microseconds per quarter note");
           tempos_.push_back({tick, us});
+        }
+        if (meta == kMetaTrackName || meta == kMetaInstrumentName) {
+          std::string &name = meta == kMetaTrackName ? names_.back() : instruments_.back();
+          if (name.empty()) name = printable(d_ + pos_, len);
         }
         pos_ += len;
         if (meta == kMetaEndOfTrack) {
@@ -291,6 +323,22 @@ class MidiParser {
                                                      (map.changes[i - 1].us_per_qn * 1e-6 / map.ppq));
     Song song;
     song.track_count = declared_tracks_;
+    for (size_t i = 0; i < names_.size(); ++i) song.track_names.push_back(names_[i].empty() ? instruments_[i] : names_[i]);
+    // Each channel's drum kit changes, in time order (stable: file order at one tick).
+    std::stable_sort(banks_.begin(), banks_.end(), [](const BankEvent &a, const BankEvent &b) { return a.tick < b.tick; });
+    std::vector<std::pair<uint64_t, bool>> kits[16];  // per channel: from tick, percussion
+    uint8_t bank[16] = {};
+    for (const BankEvent &e : banks_) {
+      if (e.bank >= 0) bank[e.channel] = static_cast<uint8_t>(e.bank);
+      else kits[e.channel].push_back({e.tick, percussion_bank(e.channel, bank[e.channel])});
+    }
+    auto percussion = [&](uint8_t channel, uint64_t tick) {
+      const auto &k = kits[channel];
+      auto it = std::upper_bound(k.begin(), k.end(), tick, [](uint64_t t, const std::pair<uint64_t, bool> &c) {
+        return t < c.first;
+      });
+      return it == k.begin() ? channel == kGmDrumChannel : std::prev(it)->second;
+    };
     song.notes.reserve(notes_.size());
     for (const auto &t : notes_) {
       if (t.end_tick <= t.start_tick) {
@@ -304,6 +352,7 @@ class MidiParser {
       n.velocity = t.velocity;
       n.channel = t.channel;
       n.track = t.track;
+      n.percussion = percussion(t.channel, t.start_tick);
       song.notes.push_back(n);
     }
     if (song.notes.empty()) throw SongError(name_ + ": no notes in any track");

@@ -47,20 +47,6 @@ std::optional<int> integer_of(std::string_view w) {
   return negative ? -v : v;
 }
 
-// Semitones above C of a note name "A".."G" with an optional '#' or 'b'; nullopt otherwise.
-// Called by read_sng.
-std::optional<int> semitone_of(std::string_view name) {
-  static constexpr int kNatural[7] = {9, 11, 0, 2, 4, 5, 7};  // A B C D E F G
-  if (name.empty() || name.size() > 2 || name[0] < 'A' || name[0] > 'G') return std::nullopt;
-  int s = kNatural[name[0] - 'A'];
-  if (name.size() == 2) {
-    if (name[1] == '#') ++s;
-    else if (name[1] == 'b') --s;
-    else return std::nullopt;
-  }
-  return s;
-}
-
 // The parser's state while it walks the lines. Used only by read_sng.
 struct SngParser {
   const std::string &name;
