@@ -1,5 +1,4 @@
-// test_player.cpp: the song player's pure parts: the clock fit (offset, rate, wrap, outliers,
-// a reset) and the look-ahead planner (lines kept on motors, stealing, restrikes, selection).
+// test_player.cpp: the song player's clock fit (offset, rate, wrap, outliers, a reset, bridges).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -8,7 +7,6 @@
 #include <random>
 
 #include "player/clock_sync.h"
-#include "player/plan.h"
 
 using namespace stepchoir;
 
@@ -36,31 +34,6 @@ void feed(ClockSync &sync, const FakeBoard &b, double from_us, int n, double ste
     const double recv = send + rtt_us + extra(rng);
     REQUIRE(sync.add(static_cast<uint64_t>(send), static_cast<uint64_t>(recv), b.ticks_at(stamp)));
   }
-}
-
-// Song with the given notes (onset, duration, note, track).
-Song song_of(std::initializer_list<SongNote> notes) {
-  Song s;
-  s.notes = notes;
-  finish_song(s, 0);
-  return s;
-}
-
-SongNote note(double on, double dur, int midi, int track = 0, int channel = 0) {
-  SongNote n;
-  n.onset_s = on;
-  n.duration_s = dur;
-  n.midi_note = static_cast<uint8_t>(midi);
-  n.velocity = 100;
-  n.track = static_cast<uint16_t>(track);
-  n.channel = static_cast<uint8_t>(channel);
-  return n;
-}
-
-PlanOptions motors(size_t n) {
-  PlanOptions o;
-  o.motors.assign(n, MotorConfig{});
-  return o;
 }
 
 }  // namespace
@@ -229,116 +202,4 @@ TEST_CASE("clock: a board that falls 10 ms behind for a moment and catches up mo
     CHECK(cents(worst_ppm) < 0.5);
     CHECK(worst_time_us < 3000);  // the bridge's own one-sided delays: a constant part
   }
-}
-
-TEST_CASE("plan: a melodic line stays on its motor, and another line takes another", "[player]") {
-  // Line A: four notes legato on track 0; line B: two long notes on track 1.
-  const Song s = song_of({note(0, 0.5, 60), note(0.5, 0.5, 62), note(1.0, 0.5, 64), note(1.5, 0.5, 65),
-                          note(0, 1, 48, 1), note(1, 1, 50, 1)});
-  const Plan p = plan_song(s, motors(3));
-  REQUIRE(p.notes.size() == 6);
-  CHECK(p.unplayed.empty());
-  int motor_a = -1, motor_b = -1;
-  for (const PlannedNote &n : p.notes) {
-    int &want = s.notes[n.song_index].track == 0 ? motor_a : motor_b;
-    if (want < 0) want = n.motor;
-    CHECK(int{n.motor} == want);
-  }
-  CHECK(motor_a != motor_b);
-  // Legato on one motor: no silence between the notes of a line.
-  const auto ev = plan_events(p);
-  size_t silences = 0;
-  for (const PlanEvent &e : ev) silences += e.silent;
-  CHECK(silences == 2);  // each line's end only
-}
-
-TEST_CASE("plan: with every motor busy a note is left out and reported, not stolen", "[player]") {
-  const Song s = song_of({note(0, 2, 60), note(0, 2, 64), note(0.5, 1, 67)});
-  const Plan p = plan_song(s, motors(2));
-  CHECK(p.notes.size() == 2);
-  REQUIRE(p.unplayed.size() == 1);
-  CHECK(s.notes[p.unplayed[0].song_index].midi_note == 67);
-  CHECK(p.unplayed[0].why == Unplayed::kNoMotor);
-  CHECK(p.shortened == 0);
-}
-
-TEST_CASE("plan: a note nearly done makes way for a new one (cut short, counted)", "[player]") {
-  const Song s = song_of({note(0, 1, 60), note(0.9, 1, 64)});
-  const Plan p = plan_song(s, motors(1));
-  REQUIRE(p.notes.size() == 2);
-  CHECK(p.shortened == 1);
-  CHECK(p.notes[0].off_s == Approx(0.9));
-  CHECK(p.notes[1].on_s == Approx(0.9));
-}
-
-TEST_CASE("plan: the same note again strikes again after a short gap", "[player]") {
-  const Song s = song_of({note(0, 0.5, 60), note(0.5, 0.5, 60)});
-  const Plan p = plan_song(s, motors(1));
-  REQUIRE(p.notes.size() == 2);
-  CHECK(p.notes[0].off_s == Approx(0.5 - kRestrikeGapS));
-  const auto ev = plan_events(p);
-  REQUIRE(ev.size() == 4);
-  CHECK(ev[1].silent);
-  CHECK(ev[1].time_s == Approx(0.49));
-}
-
-TEST_CASE("plan: selection, tempo, transpose, start position and short notes", "[player]") {
-  const Song s = song_of({note(0, 1, 60, 0, 0), note(1, 1, 62, 0, 0), note(0, 2, 40, 1, 9), note(2, 0.004, 70, 0, 0),
-                          note(2.5, 1, 72, 0, 0)});
-  PlanOptions o = motors(4);
-  o.mute_channels = {9};
-  o.tempo_scale = 2;
-  o.transpose = 12;
-  o.start_s = 0.5;
-  const Plan p = plan_song(s, o);
-  REQUIRE(p.notes.size() == 3);
-  CHECK(p.selected == 4);  // the muted channel's note is not selected
-  CHECK(p.notes[0].on_s == Approx(0));      // cut at the start position
-  CHECK(p.notes[0].off_s == Approx(0.25));  // (1 - 0.5) / 2
-  CHECK(p.notes[0].pitch == Approx(72));
-  CHECK(p.notes[1].on_s == Approx(0.25));
-  CHECK(p.notes[2].on_s == Approx(1.0));    // (2.5 - 0.5) / 2
-  REQUIRE(p.unplayed.size() == 1);
-  CHECK(p.unplayed[0].why == Unplayed::kTooShort);
-  CHECK(p.duration_s == Approx((3.5 - 0.5) / 2));
-  o = motors(4);
-  o.tracks = {1};
-  CHECK(plan_song(s, o).notes.size() == 1);
-  o.tracks = {};
-  o.channels = {9};
-  CHECK(plan_song(s, o).notes.size() == 1);
-}
-
-TEST_CASE("plan: notes outside a motor's range fold into it, and no motor at all is an error", "[player]") {
-  PlanOptions o = motors(1);
-  o.motors[0].lowest_note = 48;
-  o.motors[0].highest_note = 72;
-  const Plan p = plan_song(song_of({note(0, 1, 100)}), o);
-  REQUIRE(p.notes.size() == 1);
-  CHECK(p.notes[0].pitch == Approx(64));
-  CHECK_THROWS_AS(plan_song(song_of({note(0, 1, 60)}), PlanOptions{}), std::invalid_argument);
-  o.tempo_scale = 0;
-  CHECK_THROWS_AS(plan_song(song_of({note(0, 1, 60)}), o), std::invalid_argument);
-}
-
-TEST_CASE("plan: a chord sounds on as many motors, and the events of one time stay together", "[player]") {
-  const Song s = song_of({note(0, 1, 60), note(0, 1, 64), note(0, 1, 67)});
-  const Plan p = plan_song(s, motors(5));
-  REQUIRE(p.notes.size() == 3);
-  const auto ev = plan_events(p);
-  REQUIRE(ev.size() == 6);
-  for (size_t i = 0; i < 3; ++i) CHECK_FALSE(ev[i].silent);
-  CHECK(ev[0].motor != ev[1].motor);
-  CHECK(ev[1].motor != ev[2].motor);
-}
-
-TEST_CASE("plan: a note's end and the next one's start meet even when their sums round apart", "[player]") {
-  // 0.1 + 0.2 is 0.30000000000000004 in doubles: still legato, no silence between.
-  SongNote a = note(0.1, 0.2, 60), b = note(0.3, 0.5, 62);
-  const Plan p = plan_song(song_of({a, b}), motors(1));
-  const auto ev = plan_events(p);
-  REQUIRE(ev.size() == 3);
-  CHECK_FALSE(ev[0].silent);
-  CHECK_FALSE(ev[1].silent);
-  CHECK(ev[2].silent);
 }
