@@ -11,6 +11,7 @@ PACKAGES=(
   libcli11-dev libspdlog-dev libserialport-dev    # host
   libpng-dev                                      # piano-roll pictures
   midicsv abcmidi                                 # song tests: MIDI files to check the reader against
+  libpugixml-dev libzip-dev                       # MusicXML scores (.musicxml, .mxl)
   librtmidi-dev libreaderwriterqueue-dev          # live: MIDI in, lock-free queues
   libtomlplusplus-dev                             # live: configuration file
   jackd2 libjack-jackd2-dev                       # live: JACK (jackd2, not jack1: librtmidi-dev takes either)

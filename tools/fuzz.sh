@@ -2,9 +2,9 @@
 # fuzz.sh: builds the libFuzzer targets with clang (AddressSanitizer and
 # UndefinedBehaviorSanitizer) in build-fuzz/ and runs each for SECONDS (default 30).
 # Usage: tools/fuzz.sh [SECONDS] [TARGET...]
-#   targets: fuzz_sng fuzz_midi (song readers), fuzz_firmware (the firmware's frame decoder and
+#   targets: fuzz_sng fuzz_midi fuzz_tab fuzz_musicxml (song readers), fuzz_firmware (the firmware's frame decoder and
 #   command handlers, host build), fuzz_replies (the host's reply parsers), fuzz_config (the live
-#   configuration loader); default all five.
+#   configuration loader); default all seven.
 # Seeds come from tests/fuzz/corpus/<kind>/ and the sample songs (read only); new inputs collect in
 # build-fuzz/corpus/<target>/, crashes in build-fuzz/artifacts/. Exits non-zero on a crash.
 set -euo pipefail
@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_sng fuzz_midi fuzz_firmware fuzz_replies fuzz_config)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_sng fuzz_midi fuzz_tab fuzz_musicxml fuzz_firmware fuzz_replies fuzz_config)
 
 tools/deps.sh
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTEPCHOIR_FIRMWARE=OFF \

@@ -67,7 +67,7 @@ std::vector<size_t> voices_option(const std::string &text) {
 
 int GcodeCommand::run() const {
   try {
-    const Song s = read_song_file(song);
+    const Song s = read_song_file(song, tab_options(tab));
     for (const auto &w : s.warnings) std::fprintf(stderr, "stepchoir gcode: warning: %s\n", w.c_str());
     const Printer p = printer_of(*this);
     GcodeOptions o;
@@ -103,7 +103,10 @@ std::unique_ptr<GcodeCommand> add_gcode_command(CLI::App &app) {
   auto c = std::make_unique<GcodeCommand>();
   c->app = app.add_subcommand("gcode", "Write a song as G-code that makes a 3D printer's X, Y and Z motors sing");
   CLI::App &g = *c->app;
-  g.add_option("song", c->song, "Song file: Standard MIDI File (.mid) or music2gcode song (.sng)")->required();
+  g.add_option("song", c->song, "Song file: Standard MIDI File (.mid), music2gcode song (.sng), tab (.tab) or "
+                                "MusicXML (.musicxml, .xml, .mxl)")
+      ->required();
+  add_tab_options(g, c->tab);
   g.add_option("-o,--output", c->out, "G-code file to write ('-': standard output)")->required();
   g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, generic (default generic)");
   g.add_option("--printer-file", c->printer_file, "Read the presets from this file (format of host/data/printers.conf)");

@@ -7,6 +7,8 @@
 #include <memory>
 #include <string>
 
+#include "cli/tab_options.h"
+
 namespace stepchoir {
 
 // The subcommand's options, filled by CLI11.
@@ -15,6 +17,7 @@ struct GcodeCommand {
   std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels;
   double steps_per_cycle = 0;
   bool home = false, fold_octaves = false, use_g1 = false, extruder = false;
+  TabArgs tab;
 
   // Reads the song, plans and writes the G-code; returns the exit code (errors on stderr).
   // Called by main after parsing.

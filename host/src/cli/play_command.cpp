@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <stdexcept>
 #include <thread>
 
@@ -76,9 +77,10 @@ class Keys {
   bool active_ = false;
 };
 
-// The plan options from the command line, for `motors` motors of the board's clock.
-// Called from: PlayCommand::run.
-PlanOptions plan_options(const SongSelection &sel, size_t motors) {
+// The plan options from the command line, for the board motors ids (in the plan's order).
+// Called from: PlayCommand::run. Throws std::runtime_error for a bad --drums, --keep or --voices.
+PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &ids) {
+  const size_t motors = ids.size();
   PlanOptions p;
   p.tempo_scale = sel.tempo;
   p.transpose = sel.transpose;
@@ -89,19 +91,90 @@ PlanOptions plan_options(const SongSelection &sel, size_t motors) {
   for (int c : sel.channels) p.channels.push_back(c - 1);
   for (int c : sel.mute_channels) p.mute_channels.push_back(c - 1);
   p.motors.assign(motors, MotorConfig{});
+  if (sel.drums >= 0) {
+    const auto it = std::find(ids.begin(), ids.end(), sel.drums);
+    if (it == ids.end())
+      throw std::runtime_error("--drums " + std::to_string(sel.drums) + ": not one of the song's motors");
+    p.drum_motor = static_cast<int>(it - ids.begin());
+  }
+  for (const std::string &k : sel.keep) {
+    if (k == "melody") p.keep.push_back(Role::kMelody);
+    else if (k == "bass") p.keep.push_back(Role::kBass);
+    else if (k == "inner") p.keep.push_back(Role::kInner);
+    else throw std::runtime_error("--keep: '" + k + "': expected melody, bass or inner");
+  }
+  for (const std::string &v : sel.voices) {
+    LineSelector line;
+    size_t used = 0;
+    int value = -1;
+    try {
+      if (v.size() > 1 && (v[0] == 't' || v[0] == 'c')) value = std::stoi(v.substr(1), &used);
+    } catch (const std::exception &) {
+    }
+    line.by_channel = !v.empty() && v[0] == 'c';
+    if (value < 0 || used + 1 != v.size() || (line.by_channel && (value < 1 || value > 16)))
+      throw std::runtime_error("--voices: '" + v + "': expected tN (track N) or cN (MIDI channel N, 1-16)");
+    line.value = line.by_channel ? value - 1 : value;
+    p.voices.push_back(line);
+  }
   return p;
+}
+
+// The dry run's summary: per track and channel, notes kept (and of them folded, and as which
+// role), and notes left out by reason. Called from: PlayCommand::run.
+void report_arrangement(const Song &song, const Plan &plan) {
+  struct Counts {
+    size_t notes = 0, kept = 0, folded = 0;
+    size_t roles[kRoleCount] = {};
+    size_t why[kUnplayedCount] = {};
+  };
+  std::map<std::pair<int, int>, Counts> by_line;
+  for (const PlannedNote &n : plan.notes) {
+    const SongNote &s = song.notes[n.song_index];
+    Counts &c = by_line[{s.track, s.channel}];
+    ++c.notes, ++c.kept;
+    c.folded += n.octaves != 0;
+    ++c.roles[static_cast<size_t>(n.role)];
+  }
+  for (const UnplayedNote &u : plan.unplayed) {
+    const SongNote &s = song.notes[u.song_index];
+    Counts &c = by_line[{s.track, s.channel}];
+    ++c.notes;
+    ++c.why[static_cast<size_t>(u.why)];
+  }
+  std::printf("arrangement, by track and channel:\n");
+  for (const auto &[line, c] : by_line) {
+    const std::string &name = static_cast<size_t>(line.first) < song.track_names.size() ? song.track_names[line.first] : "";
+    std::printf("  track %d%s%s%s channel %d: %zu notes, kept %zu", line.first, name.empty() ? "" : " \"",
+                name.c_str(), name.empty() ? "" : "\"", line.second + 1, c.notes, c.kept);
+    std::string roles;
+    for (size_t r = 0; r < kRoleCount; ++r)
+      if (c.roles[r]) roles += (roles.empty() ? "" : ", ") + std::to_string(c.roles[r]) + " " + role_name(static_cast<Role>(r));
+    if (!roles.empty()) std::printf(" (%s)", roles.c_str());
+    if (c.folded) std::printf(", folded %zu", c.folded);
+    if (c.notes > c.kept) {
+      std::printf(", dropped %zu:", c.notes - c.kept);
+      const char *sep = " ";
+      for (size_t w = 0; w < kUnplayedCount; ++w)
+        if (c.why[w]) std::printf("%s%zu %s", sep, c.why[w], unplayed_reason(static_cast<Unplayed>(w))), sep = "; ";
+    }
+    std::printf("\n");
+  }
 }
 
 // Prints what the plan leaves out. Called from: PlayCommand::run.
 void report_plan(const std::string &cmd, const Song &song, const Plan &plan, size_t motors) {
-  size_t busy = 0, short_notes = 0, range = 0;
-  for (const UnplayedNote &u : plan.unplayed)
-    (u.why == Unplayed::kNoMotor ? busy : u.why == Unplayed::kTooShort ? short_notes : range)++;
+  size_t why[kUnplayedCount] = {};
+  for (const UnplayedNote &u : plan.unplayed) ++why[static_cast<size_t>(u.why)];
   std::printf("%s: %zu notes (%s), %zu played on %zu motors", cmd.c_str(), plan.selected,
               clock_text(plan.duration_s).c_str(), plan.notes.size(), motors);
-  if (!plan.unplayed.empty())
-    std::printf("; not played: %zu (every motor busy %zu, shorter than the minimum %zu, out of range %zu)",
-                plan.unplayed.size(), busy, short_notes, range);
+  if (!plan.unplayed.empty()) {
+    std::printf("; not played: %zu (", plan.unplayed.size());
+    const char *sep = "";
+    for (size_t w = 0; w < kUnplayedCount; ++w)
+      if (why[w]) std::printf("%s%s %zu", sep, unplayed_reason(static_cast<Unplayed>(w)), why[w]), sep = ", ";
+    std::printf(")");
+  }
   if (plan.shortened) std::printf("; %zu cut short for another", plan.shortened);
   std::printf("\n");
   for (size_t i = 0; i < plan.unplayed.size() && i < 5; ++i) {
@@ -158,8 +231,10 @@ void toggle_play_pause() { g_pause.store(!g_pause.load()); }
 std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   auto c = std::make_unique<PlayCommand>();
   auto selection = [&c](CLI::App *s) {
-    s->add_option("song", c->song, "Song file: Standard MIDI File (.mid) or music2gcode song (.sng)")
+    s->add_option("song", c->song, "Song file: Standard MIDI File (.mid), music2gcode song (.sng), tab (.tab) or "
+                                   "MusicXML (.musicxml, .xml, .mxl)")
         ->required()->check(CLI::ExistingFile);
+    add_tab_options(*s, c->sel.tab);
     s->add_option("--tempo", c->sel.tempo, "Tempo scale (2 = twice as fast)")->check(CLI::Range(0.05, 20.0));
     s->add_option("--transpose", c->sel.transpose, "Semitones up (negative: down)")->check(CLI::Range(-48, 48));
     s->add_option("--start", c->sel.start_s, "Start this many seconds into the song")->check(CLI::NonNegativeNumber);
@@ -169,6 +244,12 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
     s->add_option("--mute-tracks", c->sel.mute_tracks, "Leave these tracks out")->delimiter(',');
     s->add_option("--mute-channels", c->sel.mute_channels, "Leave these MIDI channels out (1-16)")
         ->delimiter(',')->check(CLI::Range(1, 16));
+    s->add_option("--drums", c->sel.drums, "Play the percussion on this motor as short bursts (it sings nothing else)")
+        ->check(CLI::Range(0, 31));
+    s->add_option("--keep", c->sel.keep, "Play only these roles: melody, bass, inner (default: all; --voices lines play)")
+        ->delimiter(',');
+    s->add_option("--voices", c->sel.voices,
+                  "Pitched lines that take motors first, in order: tN (track N), cN (channel 1-16)")->delimiter(',');
     s->add_option("--min-note-ms", c->sel.min_note_ms, "Leave out notes shorter than this")
         ->check(CLI::Range(0.0, 1000.0))->default_val(c->sel.min_note_ms);
     s->add_option("--vboard", c->vboard, "Board the virtual board simulates (without --port)")
@@ -220,11 +301,14 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
   const bool jamming = jam && jam->parsed();
   const std::string cmd = rendering ? "render" : jamming ? "jam" : "play";
   try {
-    const Song song = read_song_file(this->song);
+    const Song song = read_song_file(this->song, tab_options(sel.tab));
     for (const std::string &w : song.warnings) std::fprintf(stderr, "%s: warning: %s\n", cmd.c_str(), w.c_str());
     if (dry_run_motors > 0) {
-      const Plan plan = plan_song(song, plan_options(sel, static_cast<size_t>(dry_run_motors)));
-      report_plan(cmd, song, plan, static_cast<size_t>(dry_run_motors));
+      std::vector<uint8_t> ids(static_cast<size_t>(dry_run_motors));
+      for (size_t m = 0; m < ids.size(); ++m) ids[m] = static_cast<uint8_t>(m);
+      const Plan plan = plan_song(song, plan_options(sel, ids));
+      report_plan(cmd, song, plan, ids.size());
+      report_arrangement(song, plan);
       for (const PlanEvent &e : plan_events(plan)) {
         if (e.silent)
           std::printf("%10.4f s  motor %u  silent\n", e.time_s, e.motor);
@@ -267,7 +351,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the board has " +
                                  std::to_string(caps.motor_count) + ")");
     }
-    const Plan plan = plan_song(song, plan_options(sel, song_ids.size()));
+    const Plan plan = plan_song(song, plan_options(sel, song_ids));
     report_plan(cmd, song, plan, song_ids.size());
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;

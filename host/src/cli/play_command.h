@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "cli/tab_options.h"
+
 namespace stepchoir {
 
 // Options both commands share: what of the song plays, and how.
@@ -18,6 +20,9 @@ struct SongSelection {
   int transpose = 0;
   std::vector<int> tracks, channels, mute_tracks, mute_channels;  // channels 1-16 as musicians count
   double min_note_ms = 10;
+  int drums = -1;                          // board motor for percussion bursts, -1: none
+  std::vector<std::string> keep, voices;   // --keep melody,bass,inner; --voices t2,c10
+  TabArgs tab;                             // a .tab song's tempo and tuning
 };
 
 struct PlayCommand {
