@@ -16,12 +16,16 @@ namespace stepchoir {
 
 namespace {
 
-// Entries the host leaves free in the board's queue: its count of what the board still holds
-// is an estimate.
+// Entries the host leaves free in the board's queue.
 constexpr size_t kQueueSpare = 2;
-// An entry is taken as gone from the board's queue this long after its time (the board lets
-// it go a little before; the host's view of the board's clock may be off by a few ms).
-constexpr double kQueueFreeAfterS = 0.01;
+// An entry is taken as gone from the board's queue once a clock reply says the board's time
+// passed it by this much (the board's main loop lets it go a little before its time). The
+// host's own estimate of the board's time is not enough: a board that lags (a simulation
+// slowed by the machine) would still hold entries the estimate says are gone.
+constexpr double kQueueFreeAfterS = 0.001;
+// The song is over once a clock reply says the board passed its end; if the board stops
+// replying, this long after the host's estimate says so.
+constexpr double kEndWaitS = 2.0;
 // Board-time mode: clock round trips this often (the simulated board's speed changes), and
 // the fit's window (samples) and shortest span for a rate.
 constexpr double kBoardTimeClockEveryS = 0.005;
@@ -230,8 +234,8 @@ uint32_t Player::period_for(double pitch) const {
 // has room: one `at` frame per group of events at the same time. False when the link failed.
 bool Player::send_due(uint64_t now_us) {
   const double now_ticks = sync_.ticks_at(static_cast<double>(now_us));
-  const double free_ticks = kQueueFreeAfterS * caps_.f_cpu_hz;
-  while (!queued_ticks_.empty() && queued_ticks_.front() + free_ticks < now_ticks) queued_ticks_.pop_front();
+  const double reached = sync_.newest_ticks() - kQueueFreeAfterS * caps_.f_cpu_hz;
+  while (!queued_ticks_.empty() && queued_ticks_.front() < reached) queued_ticks_.pop_front();
   const double lead_ticks = opt_.lead_s * caps_.f_cpu_hz;
   const size_t capacity = caps_.queue_size > kQueueSpare ? caps_.queue_size - kQueueSpare : 1;
   const size_t per_frame = (sc::kMaxPayload - 5) / sc::kSetPeriodBytes;
@@ -400,7 +404,9 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
       on_progress(progress);
     }
     // The end: every event sent and the last one played.
-    if (!opt_.loop && cursor_ == events_.size() && pos > duration_s_ + kQueueFreeAfterS) break;
+    if (!opt_.loop && cursor_ == events_.size() && pos > duration_s_ &&
+        (sync_.newest_ticks() > event_ticks(duration_s_) || pos > duration_s_ + kEndWaitS))
+      break;
   }
   // Let replies to the last entries come in, then silence everything.
   read_replies(5);
