@@ -22,6 +22,7 @@
 #include "board/board.h"
 #include "board/vboard_child.h"
 #include "config/config.h"
+#include "config/rig.h"
 #include "live/midi_in.h"
 #include "live/session.h"
 
@@ -123,24 +124,6 @@ void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::str
 
 }  // namespace
 
-void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
-  for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
-    board.send(config_payload(settings.motors[m].hardware));
-    board.send(driver_payload(settings.motors[m].power));
-    const auto err = board.wait_reply(sc::kMsgError, 100);
-    if (!err) continue;
-    const uint8_t code = (*err)[1];
-    const bool driver = (*err)[2] == sc::kMsgDriver;
-    throw std::runtime_error(
-        port + ": the board refused motor " + std::to_string(m) + "'s " +
-        (driver ? "driver settings (sleep_pin, reset_pin, idle, wake_us)" : "configuration") + ": " +
-        sc::error_name(code) +
-        (code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
-         : driver && code == sc::kErrConfig ? " (a pin the board lacks or uses already?)"
-                                           : ""));
-  }
-}
-
 void print_midi_inputs(const std::string &midi_api) {
   try {
     const auto inputs = list_midi_inputs(parse_midi_api(midi_api));
@@ -156,7 +139,8 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   auto log = spdlog::create_async<spdlog::sinks::stderr_color_sink_mt>("live");
   log->set_pattern("stepchoir live: %^%l%$: %v");
   // The file's settings, then the command line's over them.
-  const LiveConfig cfg = o.config.empty() ? LiveConfig{} : load_config(o.config);
+  const Rig rig = load_rig(o.config);
+  const LiveConfig &cfg = rig.config;
   const std::string midi_selector = o.midi.empty() ? cfg.midi_input : o.midi;
   const std::string api_name = o.midi_api.empty() ? cfg.midi_api : o.midi_api;
   const MidiApi api = parse_midi_api(api_name);
@@ -179,20 +163,23 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
     const Caps caps = vboard ? boards.back()->hello() : boards.back()->greet();  // its own board does not reset
-    if (b < cfg.boards.size()) configure_motors(*boards.back(), caps, cfg.boards[b], ports[b]);
+    if (const BoardSettings *settings = board_settings(rig, ports[b], b))
+      configure_motors(*boards.back(), caps, *settings, ports[b]);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }
   AllocatorConfig alloc = pool_config(pool, policy);
   alloc.priority = cfg.priority;
   alloc.sing_percussion = cfg.sing_percussion;
   alloc.a4_hz = cfg.a4_hz;
-  for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b)
-    for (size_t m = 0; b < cfg.boards.size() && m < cfg.boards[b].motors.size() && m < pool[b].motor_count; ++m) {
+  for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b) {
+    const BoardSettings *settings = board_settings(rig, ports[b], b);
+    for (size_t m = 0; settings && m < settings->motors.size() && m < pool[b].motor_count; ++m) {
       const uint32_t f_cpu_hz = alloc.motors[first + m].f_cpu_hz;
-      alloc.motors[first + m] = cfg.boards[b].motors[m].music;
+      alloc.motors[first + m] = settings->motors[m].music;
       alloc.motors[first + m].f_cpu_hz = f_cpu_hz;
-      alloc.mono_channel[first + m] = cfg.boards[b].motors[m].mono_channel;
+      alloc.mono_channel[first + m] = settings->motors[m].mono_channel;
     }
+  }
   LiveSession session(pool, alloc);
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
@@ -214,7 +201,8 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
       const BoardStats &st = session.board_stats(b);
-      if (st.write_failed.load() || st.read_failed.load()) reconnect(session, b, ports[b], pool[b].motor_count, b < cfg.boards.size() ? &cfg.boards[b] : nullptr, boards, stop, *log);
+      if (st.write_failed.load() || st.read_failed.load()) 
+        reconnect(session, b, ports[b], pool[b].motor_count, board_settings(rig, ports[b], b), boards, stop, *log);
     }
     if (errors != errors_logged) {
       log->warn("the boards reported {} errors (latest: {})", errors,

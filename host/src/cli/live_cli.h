@@ -13,7 +13,7 @@ namespace stepchoir {
 
 // Empty strings: not given on the command line (the config file's value, else its default).
 struct LiveOptions {
-  std::string config;                    // TOML file ("" = none)
+  std::string config;                    // TOML file ("" = the default location, if a file is there)
   std::string midi;                      // MidiIn selector: index, name substring, virtual[:NAME]
   std::string midi_api;                  // alsa | jack
   std::vector<std::string> ports;        // boards; none (and none in the file): the virtual board
@@ -27,11 +27,6 @@ struct LiveOptions {
 // before it returns. Returns the process exit status; prints errors on stderr.
 // Called from: main().
 int run_live(const LiveOptions &options, const std::atomic<bool> &stop);
-
-// Sends the configuration and the driver settings of every motor `settings` lists (up to the
-// board's motor count); throws naming the port, the motor and the board's error when it refuses
-// one. Called from: run_live after hello, `stepchoir driver --config`.
-void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port);
 
 // `stepchoir ports`' MIDI part: the inputs of one API, one "index: name" a line, or why none.
 // Called from: main().

@@ -14,6 +14,7 @@
 #include "cli/live_cli.h"
 #include "cli/play_command.h"
 #include "config/config.h"
+#include "config/rig.h"
 #include "core/pitch.h"
 
 namespace {
@@ -94,20 +95,13 @@ int run_tone(stepchoir::Board &board, const stepchoir::Caps &caps, int motor, do
   return 0;
 }
 
-// `stepchoir driver`: one motor's driver woken, put to sleep, disabled or reset (kMsgDriverAct),
-// after the motors' settings from a configuration file (its SLEEP and RESET pins) if given.
+// `stepchoir driver`: one motor's driver woken, put to sleep, disabled or reset (kMsgDriverAct);
+// main configured the motors from the rig file first (their SLEEP and RESET pins).
 int run_driver(stepchoir::Board &board, const stepchoir::Caps &caps, const std::string &port, int motor,
-               const std::string &action, const std::string &config_path) {
+               const std::string &action) {
   if (motor < 0 || motor >= caps.motor_count) {
     std::fprintf(stderr, "stepchoir driver: --motor %d: the board has motors 0-%d\n", motor, caps.motor_count - 1);
     return 2;
-  }
-  if (!config_path.empty()) {  // the [[boards]] table of this port, else the file's first
-    const stepchoir::LiveConfig cfg = stepchoir::load_config(config_path);
-    const stepchoir::BoardSettings *settings = cfg.boards.empty() ? nullptr : &cfg.boards[0];
-    for (const auto &b : cfg.boards)
-      if (b.port == port) settings = &b;
-    if (settings) stepchoir::configure_motors(board, caps, *settings, port);
   }
   const char *const kActions[] = {"wake", "sleep", "disable", "reset"};
   const char *const kDone[] = {"awake", "asleep", "disabled", "reset"};
@@ -130,33 +124,35 @@ int run_driver(stepchoir::Board &board, const stepchoir::Caps &caps, const std::
 int main(int argc, char **argv) {
   CLI::App app{"stepchoir: stepper motors that sing"};
   app.require_subcommand(1);
-  std::string port;
-
+  // The one-board commands: the board at --port, else the rig file's first board; the rig
+  // file's motor settings go to the board before anything else.
+  std::string port, config_path;
+  auto board_options = [&](CLI::App *c) {
+    c->add_option("--port,-p", port, "Serial port or virtual-board link (default: the configuration's first board)");
+    c->add_option("--config,-c", config_path,
+                  "Rig configuration (default: " + stepchoir::default_config_path() + " if it exists)")
+        ->check(CLI::ExistingFile);
+  };
   auto *hello = app.add_subcommand("hello", "Print a board's capabilities");
-  hello->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
-
+  board_options(hello);
   auto *status = app.add_subcommand("status", "Print a board's counters and motor positions");
-  status->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
-
+  board_options(status);
   auto *panic = app.add_subcommand("panic", "Silence every motor of a board now");
-  panic->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+  board_options(panic);
 
   int motor = 0;
   double hz = 0, seconds = 0;
   auto *tone = app.add_subcommand("tone", "Play one motor at one frequency (0 Hz silences)");
-  tone->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+  board_options(tone);
   tone->add_option("--motor,-m", motor, "Motor index")->default_val(0);
   tone->add_option("--hz", hz, "Frequency in Hz (steps per second)")->required()->check(CLI::Range(0.0, 40000.0));
   tone->add_option("--seconds,-s", seconds, "How long (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
 
-  std::string driver_action, driver_config;
+  std::string driver_action;
   auto *driver = app.add_subcommand("driver", "Wake, sleep, disable or reset one motor's driver (the board's "
                                               "watchdog disables every driver 300 ms after the last frame)");
-  driver->add_option("--port,-p", port, "Serial port or virtual-board link")->required();
+  board_options(driver);
   driver->add_option("--motor,-m", motor, "Motor index")->default_val(0);
-  driver->add_option("--config,-c", driver_config, "Configure the board's motors from this file first (sleep_pin, "
-                                                   "reset_pin: stepchoir config --print-default)")
-      ->check(CLI::ExistingFile);
   driver->add_option("action", driver_action, "wake, sleep, disable or reset")
       ->required()
       ->check(CLI::IsMember({"wake", "sleep", "disable", "reset"}));
@@ -167,7 +163,8 @@ int main(int argc, char **argv) {
 
   stepchoir::LiveOptions live_opt;
   auto *live = app.add_subcommand("live", "Play the motors from a MIDI input (Ctrl-C silences them and ends)");
-  live->add_option("--config,-c", live_opt.config, "TOML configuration (stepchoir config --print-default)")
+  live->add_option("--config,-c", live_opt.config,
+                   "Rig configuration (default: " + stepchoir::default_config_path() + " if it exists)")
       ->check(CLI::ExistingFile);
   live->add_option("--midi", live_opt.midi, "MIDI input: index, part of its name, or virtual[:NAME] (default virtual)");
   live->add_option("--port,-p", live_opt.ports, "Board (repeat for several: their motors form one pool); "
@@ -181,8 +178,9 @@ int main(int argc, char **argv) {
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
 
-  auto *config = app.add_subcommand("config", "The live configuration file");
+  auto *config = app.add_subcommand("config", "The rig configuration file every command reads");
   auto *print_default = config->add_flag("--print-default", "Print the commented default configuration");
+  auto *where = config->add_flag("--where", "Print the file commands read without --config");
   std::string check_path;
   config->add_option("--check", check_path, "Read a configuration file and report the first problem")
       ->check(CLI::ExistingFile);
@@ -209,12 +207,23 @@ int main(int argc, char **argv) {
     }
     if (app.got_subcommand(config)) {
       if (*print_default) std::fputs(stepchoir::default_config_text(), stdout);
+      if (*where) {
+        const std::string path = stepchoir::default_config_path(), found = stepchoir::rig_path("");
+        std::printf("%s%s\n", path.empty() ? "(no HOME: none)" : path.c_str(),
+                    path.empty() ? "" : found.empty() ? " (not there: every setting at its default)" : "");
+      }
       if (!check_path.empty()) {
         const auto c = stepchoir::load_config(check_path);
         std::printf("%s: ok (%zu boards)\n", check_path.c_str(), c.boards.size());
       }
       return 0;
     }
+    const stepchoir::Rig rig = stepchoir::load_rig(config_path);
+    port = stepchoir::rig_port(rig, port);
+    if (port.empty())
+      throw std::runtime_error("no --port, and " +
+                               (rig.path.empty() ? "no configuration file (" + stepchoir::default_config_path() + ")"
+                                                 : rig.path + " names no board port"));
     stepchoir::Board board(stepchoir::open_link(port));
     if (app.got_subcommand(panic)) {
       // At once: a board that the open did not reset stops now. One that it reset is silent in
@@ -237,6 +246,10 @@ int main(int argc, char **argv) {
       return 0;
     }
     const stepchoir::Caps caps = board.greet();  // waits out a reset by the open (DTR)
+    // Before a motor moves, the rig's settings (a TB6600's pulse, SLEEP and RESET pins).
+    const stepchoir::BoardSettings *settings = stepchoir::board_settings(rig, port, 0);
+    if (settings && (app.got_subcommand(tone) || app.got_subcommand(driver)))
+      stepchoir::configure_motors(board, caps, *settings, port);
     if (app.got_subcommand(hello)) {
       print_caps(caps);
     } else if (app.got_subcommand(status)) {
@@ -246,7 +259,7 @@ int main(int argc, char **argv) {
     } else if (app.got_subcommand(tone)) {
       return run_tone(board, caps, motor, hz, seconds);
     } else if (app.got_subcommand(driver)) {
-      return run_driver(board, caps, port, motor, driver_action, driver_config);
+      return run_driver(board, caps, port, motor, driver_action);
     }
   } catch (const std::exception &e) {
     std::fprintf(stderr, "stepchoir: %s\n", e.what());

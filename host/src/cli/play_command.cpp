@@ -18,6 +18,7 @@
 #include "board/link.h"
 #include "board/vboard_child.h"
 #include "config/config.h"
+#include "config/rig.h"
 #include "core/pitch.h"
 #include "live/midi_in.h"
 #include "live/session.h"
@@ -77,10 +78,10 @@ class Keys {
   bool active_ = false;
 };
 
-// The plan options from the command line, for the board motors ids (in the plan's order).
-// Called from: PlayCommand::run. Throws std::runtime_error for a bad --drums, --keep or --voices.
-PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &ids) {
-  const size_t motors = ids.size();
+// The plan options from the command line, for the board motors ids (in the plan's order) whose
+// musical settings (the rig file's) are `music`. Called from: PlayCommand::run. Throws
+// std::runtime_error for a bad --drums, --keep or --voices.
+PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &ids, std::vector<MotorConfig> music) {
   PlanOptions p;
   p.tempo_scale = sel.tempo;
   p.transpose = sel.transpose;
@@ -90,7 +91,7 @@ PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &i
   p.mute_tracks = sel.mute_tracks;
   for (int c : sel.channels) p.channels.push_back(c - 1);
   for (int c : sel.mute_channels) p.mute_channels.push_back(c - 1);
-  p.motors.assign(motors, MotorConfig{});
+  p.motors = std::move(music);
   if (sel.drums >= 0) {
     const auto it = std::find(ids.begin(), ids.end(), sel.drums);
     if (it == ids.end())
@@ -257,10 +258,14 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
     s->add_option("--vboard-link", c->vboard_link,
                   "The virtual board's USB bridge (default: the virtual board's; docs/usb-bridges.md)")
         ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
+    s->add_option("--config,-c", c->config,
+                  "Rig configuration: the board's port and each motor's driver, range, transpose, tuning (default: " +
+                      default_config_path() + " if it exists)")
+        ->check(CLI::ExistingFile);
   };
   c->play = app.add_subcommand("play", "Play a song file on the motors (space pauses, q or Ctrl-C stops)");
   selection(c->play);
-  c->play->add_option("--port,-p", c->port, "Board (none: the virtual board, in real time)");
+  c->play->add_option("--port,-p", c->port, "Board (none: the configuration's first board, else the virtual board, in real time)");
   c->play->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->play->add_option("--clock-ppm", c->clock_ppm, "Without --port: the virtual board's crystal error")
       ->check(CLI::Range(-20000.0, 20000.0));
@@ -281,7 +286,7 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
       ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
   c->jam->add_option("--song-motors", c->song_motors, "The board's motors that play the song (the keyboard plays the rest)")
       ->delimiter(',')->default_str("0,1");
-  c->jam->add_option("--port,-p", c->port, "Board (none: the virtual board, in real time)");
+  c->jam->add_option("--port,-p", c->port, "Board (none: the configuration's first board, else the virtual board, in real time)");
   c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
       ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
@@ -301,12 +306,13 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
   const bool jamming = jam && jam->parsed();
   const std::string cmd = rendering ? "render" : jamming ? "jam" : "play";
   try {
+    const Rig rig = load_rig(config);
     const Song song = read_song_file(this->song, tab_options(sel.tab));
     for (const std::string &w : song.warnings) std::fprintf(stderr, "%s: warning: %s\n", cmd.c_str(), w.c_str());
     if (dry_run_motors > 0) {
       std::vector<uint8_t> ids(static_cast<size_t>(dry_run_motors));
       for (size_t m = 0; m < ids.size(); ++m) ids[m] = static_cast<uint8_t>(m);
-      const Plan plan = plan_song(song, plan_options(sel, ids));
+      const Plan plan = plan_song(song, plan_options(sel, ids, motor_music(board_settings(rig, port, 0), 16000000, ids)));
       report_plan(cmd, song, plan, ids.size());
       report_arrangement(song, plan);
       for (const PlanEvent &e : plan_events(plan)) {
@@ -318,7 +324,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       return 0;
     }
     std::unique_ptr<VirtualBoard> vb;
-    std::string link_path = port, trace = rendering ? keep_trace : vboard_trace;
+    std::string link_path = rendering ? "" : rig_port(rig, port), trace = rendering ? keep_trace : vboard_trace;
     if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
     if (link_path.empty()) {
       link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + ".pty";
@@ -336,6 +342,9 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     }
     auto board = std::make_unique<Board>(open_link(link_path));
     const Caps caps = vb ? board->hello() : board->greet();  // its own board does not reset
+    // The rig's first board's settings also fit the virtual board that stands in for it.
+    const BoardSettings *settings = board_settings(rig, link_path, 0);
+    if (settings) configure_motors(*board, caps, *settings, link_path);
     // Jam: the song's motors and the keyboard's.
     std::vector<uint8_t> song_ids, live_ids;
     for (uint8_t m = 0; m < caps.motor_count; ++m) {
@@ -351,7 +360,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the board has " +
                                  std::to_string(caps.motor_count) + ")");
     }
-    const Plan plan = plan_song(song, plan_options(sel, song_ids));
+    const Plan plan = plan_song(song, plan_options(sel, song_ids, motor_music(settings, caps.f_cpu_hz, song_ids)));
     report_plan(cmd, song, plan, song_ids.size());
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;
@@ -360,7 +369,13 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       // The live path owns the link (its writer sends live notes first); the song goes
       // through it (JamLink). The live side plays the other motors.
       LiveBoard lb{&song_board->link(), static_cast<uint8_t>(live_ids.size()), caps.f_cpu_hz, live_ids};
-      session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, pool_config({lb}, parse_policy(policy)));
+      AllocatorConfig alloc = pool_config({lb}, parse_policy(policy));
+      const std::vector<MotorConfig> live_music = motor_music(settings, caps.f_cpu_hz, live_ids);
+      std::copy(live_music.begin(), live_music.end(), alloc.motors.begin());
+      alloc.a4_hz = rig.config.a4_hz;
+      alloc.priority = rig.config.priority;
+      alloc.sing_percussion = rig.config.sing_percussion;
+      session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, alloc);
       session->forward_replies(0);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
       session->start();
@@ -382,6 +397,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     po.sync_s = sync_s;
     po.loop = loop && !rendering;
     po.auto_tune = !no_auto_tune;
+    po.a4_hz = rig.config.a4_hz;
     LinkOpener opener;
     if (!jamming) opener = [link_path] { return open_link(link_path); };  // jam: the live path reconnects
     Player player(std::move(board), caps, plan_events(plan), plan.duration_s, po, opener);

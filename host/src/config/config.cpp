@@ -236,7 +236,10 @@ LiveConfig load_config(const std::string &path) {
 }
 
 const char *default_config_text() {
-  return R"(# stepchoir live configuration. Every key is optional: what is left out keeps the value shown.
+  return R"(# stepchoir rig configuration, read by every command that talks to a board (live, play, jam,
+# render, tone, driver, hello, status, panic): --config FILE, else this file at
+# $XDG_CONFIG_HOME/stepchoir/stepchoir.toml (~/.config/stepchoir/stepchoir.toml); `stepchoir
+# config --where` prints it. Every key is optional: what is left out keeps the value shown.
 # Command-line options (--midi, --midi-api, --policy, --port) override the file.
 
 # Tuning reference: the frequency of A4 (MIDI note 69), Hz.
@@ -259,8 +262,9 @@ priority = "oldest"
 # hits, not pitches: their notes are ignored unless this is true.
 sing_percussion = false
 
-# One [[boards]] table per board, in order: their motors form one pool. With no board and no
-# --port, `stepchoir live` starts the virtual board.
+# One [[boards]] table per board, in order: their motors form one pool. A command without --port
+# uses the first board's port; with no board and no --port, live, play and jam start the virtual
+# board, and take the first board's motors for it (render always does).
 # [[boards]]
 # port = "/dev/ttyACM0"
 #

@@ -1,4 +1,5 @@
-// config.h: the `stepchoir live` configuration file (TOML): boards, motors, allocation, MIDI.
+// config.h: the rig configuration file (TOML): boards, motors, allocation, MIDI (config/rig.h:
+// where it is and what each command takes from it).
 //
 // Every key is optional; what is missing keeps its default. `stepchoir config --print-default`
 // prints default_config_text(), a commented file that loads to exactly the defaults.
@@ -50,7 +51,7 @@ sc::DriverBody default_motor_power(uint8_t motor, uint8_t driver);
 
 // Reads and checks a configuration file. Throws std::runtime_error "PATH:LINE:COLUMN: what is
 // wrong" for a syntax error, an unknown key, a value of the wrong type or out of range.
-// Called from: `stepchoir live --config`, `stepchoir config --check`.
+// Called from: load_rig, `stepchoir config --check`.
 LiveConfig load_config(const std::string &path);
 // The same from text; source names it in messages.
 LiveConfig parse_config(const std::string &text, const std::string &source);

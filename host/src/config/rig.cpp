@@ -1,0 +1,76 @@
+// rig.cpp: the rig file's location and what each command takes from it.
+#include "config/rig.h"
+
+#include <sys/stat.h>
+
+#include <cstdlib>
+#include <stdexcept>
+
+namespace stepchoir {
+
+std::string default_config_path() {
+  const char *xdg = std::getenv("XDG_CONFIG_HOME");
+  if (xdg && *xdg) return std::string(xdg) + "/stepchoir/stepchoir.toml";
+  const char *home = std::getenv("HOME");
+  if (home && *home) return std::string(home) + "/.config/stepchoir/stepchoir.toml";
+  return "";
+}
+
+std::string rig_path(const std::string &given) {
+  if (!given.empty()) return given;
+  const std::string fallback = default_config_path();
+  struct stat st {};
+  return !fallback.empty() && ::stat(fallback.c_str(), &st) == 0 && S_ISREG(st.st_mode) ? fallback : "";
+}
+
+Rig load_rig(const std::string &given) {
+  Rig rig;
+  rig.path = rig_path(given);
+  if (!rig.path.empty()) rig.config = load_config(rig.path);
+  return rig;
+}
+
+const BoardSettings *board_settings(const Rig &rig, const std::string &port, size_t index) {
+  const auto &boards = rig.config.boards;
+  for (const BoardSettings &b : boards)
+    if (!b.port.empty() && b.port == port) return &b;
+  // else by position: the same rig on another port name (a board plugged in elsewhere)
+  return index < boards.size() ? &boards[index] : nullptr;
+}
+
+std::string rig_port(const Rig &rig, const std::string &port) {
+  if (!port.empty()) return port;
+  for (const BoardSettings &b : rig.config.boards)
+    if (!b.port.empty()) return b.port;
+  return "";
+}
+
+void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
+  for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
+    board.send(config_payload(settings.motors[m].hardware));
+    board.send(driver_payload(settings.motors[m].power));
+    const auto err = board.wait_reply(sc::kMsgError, 100);
+    if (!err) continue;
+    const uint8_t code = (*err)[1];
+    const bool driver = (*err)[2] == sc::kMsgDriver;
+    throw std::runtime_error(
+        port + ": the board refused motor " + std::to_string(m) + "'s " +
+        (driver ? "driver settings (sleep_pin, reset_pin, idle, wake_us)" : "configuration") + ": " +
+        sc::error_name(code) +
+        (code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
+         : driver && code == sc::kErrConfig ? " (a pin the board lacks or uses already?)"
+                                           : ""));
+  }
+}
+
+std::vector<MotorConfig> motor_music(const BoardSettings *settings, uint32_t f_cpu_hz, const std::vector<uint8_t> &ids) {
+  std::vector<MotorConfig> out;
+  for (uint8_t id : ids) {
+    MotorConfig mc = settings && id < settings->motors.size() ? settings->motors[id].music : MotorConfig{};
+    mc.f_cpu_hz = f_cpu_hz;
+    out.push_back(mc);
+  }
+  return out;
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,57 @@
+// rig.h: the one rig file every command reads: where it is, which board entry a port gets,
+// and what a command takes from it (the port, the motors' settings on the board and in the
+// planner).
+//
+// A command uses --config FILE if given, else the default location if a file is there, else
+// none (every setting at its default). Command-line options win over the file.
+#ifndef STEPCHOIR_HOST_CONFIG_RIG_H
+#define STEPCHOIR_HOST_CONFIG_RIG_H
+
+#include <string>
+#include <vector>
+
+#include "board/board.h"
+#include "config/config.h"
+
+namespace stepchoir {
+
+// $XDG_CONFIG_HOME/stepchoir/stepchoir.toml, or ~/.config/stepchoir/stepchoir.toml when
+// XDG_CONFIG_HOME is unset or empty ("" when HOME is unset too). Called from: rig_path,
+// `stepchoir config --where`.
+std::string default_config_path();
+
+// The file a command reads: `given` if not empty, else the default location if a file is
+// there, else "" (none). Called from: every command that takes --config.
+std::string rig_path(const std::string &given);
+
+// A loaded rig: the file's settings (defaults when there is no file) and where they came from.
+struct Rig {
+  std::string path;  // "" = no file
+  LiveConfig config;
+};
+
+// Loads rig_path(given). Throws std::runtime_error "PATH:LINE:COLUMN: ..." for a bad file.
+Rig load_rig(const std::string &given);
+
+// The [[boards]] entry for the board at `port`, the `index`-th of the command's boards: the
+// entry whose port is that port, else the index-th entry, else none. Called from: the
+// commands, after they opened the board.
+const BoardSettings *board_settings(const Rig &rig, const std::string &port, size_t index);
+
+// The board a one-board command talks to: --port if given, else the file's first board's port,
+// else "" (play, render and jam then start the virtual board). Called from: main, play.
+std::string rig_port(const Rig &rig, const std::string &port);
+
+// Sends the configuration and the driver settings of every motor `settings` lists (up to the
+// board's motor count); throws naming the port, the motor and the board's error when it refuses
+// one. Called from: every command that plays notes, after hello, before the first note.
+void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port);
+
+// The planner's and allocator's view of the board's motors `ids`: each one's musical settings
+// from the file (range, transpose, tuning, mutes) and the board's clock (Hz). Motors the file
+// does not list keep the defaults. Called from: play, render, jam.
+std::vector<MotorConfig> motor_music(const BoardSettings *settings, uint32_t f_cpu_hz, const std::vector<uint8_t> &ids);
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_CONFIG_RIG_H

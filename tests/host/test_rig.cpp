@@ -1,0 +1,123 @@
+// test_rig.cpp: the rig file every command reads: where it is looked for, which [[boards]]
+// entry a port gets, and the motors' musical settings a song is planned with.
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "config/rig.h"
+
+using namespace stepchoir;
+
+namespace {
+
+// Sets an environment variable for one scope and puts the old value back.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char *name, const char *value) : name_(name) {
+    const char *old = std::getenv(name);
+    had_ = old != nullptr;
+    if (had_) old_ = old;
+    if (value)
+      ::setenv(name, value, 1);
+    else
+      ::unsetenv(name);
+  }
+  ~ScopedEnv() {
+    if (had_)
+      ::setenv(name_, old_.c_str(), 1);
+    else
+      ::unsetenv(name_);
+  }
+
+ private:
+  const char *name_;
+  bool had_ = false;
+  std::string old_;
+};
+
+// A fresh directory under /tmp for this test run.
+std::string scratch_dir(const char *what) {
+  const std::string d = "/tmp/stepchoir-test-rig-" + std::string(what) + "-" + std::to_string(::getpid());
+  ::mkdir(d.c_str(), 0700);
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("rig: the default location follows XDG_CONFIG_HOME, else HOME", "[config]") {
+  {
+    ScopedEnv xdg("XDG_CONFIG_HOME", "/x/conf");
+    CHECK(default_config_path() == "/x/conf/stepchoir/stepchoir.toml");
+  }
+  {
+    ScopedEnv xdg("XDG_CONFIG_HOME", "");
+    ScopedEnv home("HOME", "/home/player");
+    CHECK(default_config_path() == "/home/player/.config/stepchoir/stepchoir.toml");
+  }
+  {
+    ScopedEnv xdg("XDG_CONFIG_HOME", nullptr);
+    ScopedEnv home("HOME", nullptr);
+    CHECK(default_config_path().empty());
+    CHECK(rig_path("").empty());
+  }
+}
+
+TEST_CASE("rig: --config wins, else the default file if it is there, else no file", "[config]") {
+  const std::string dir = scratch_dir("where");
+  ScopedEnv xdg("XDG_CONFIG_HOME", dir.c_str());
+  CHECK(rig_path("").empty());  // nothing there yet
+  CHECK(load_rig("").path.empty());
+  CHECK(load_rig("").config.boards.empty());
+  ::mkdir((dir + "/stepchoir").c_str(), 0700);
+  const std::string file = dir + "/stepchoir/stepchoir.toml";
+  std::ofstream(file) << "a4_hz = 432.0\n[[boards]]\nport = \"/dev/ttyACM7\"\n";
+  CHECK(rig_path("") == file);
+  const Rig rig = load_rig("");
+  CHECK(rig.path == file);
+  CHECK(rig.config.a4_hz == 432.0);
+  CHECK(rig_port(rig, "") == "/dev/ttyACM7");
+  CHECK(rig_port(rig, "/dev/ttyUSB0") == "/dev/ttyUSB0");  // the command line wins
+  CHECK(rig_path("/elsewhere.toml") == "/elsewhere.toml");
+  // a bad default file is reported, not ignored
+  std::ofstream(file) << "a4_hz = \"high\"\n";
+  CHECK_THROWS_WITH(load_rig(""), Catch::Contains(file + ":1:"));
+  ::unlink(file.c_str());
+  ::rmdir((dir + "/stepchoir").c_str());
+  ::rmdir(dir.c_str());
+}
+
+TEST_CASE("rig: a port gets its own [[boards]] entry, else the entry in its place", "[config]") {
+  Rig rig;
+  rig.config = parse_config("[[boards]]\nport = \"/dev/A\"\n[[boards.motors]]\ntranspose = 1\n"
+                            "[[boards]]\nport = \"/dev/B\"\n[[boards.motors]]\ntranspose = 2\n",
+                            "two.toml");
+  REQUIRE(board_settings(rig, "/dev/B", 0) == &rig.config.boards[1]);  // by port, whatever the order
+  CHECK(board_settings(rig, "/dev/A", 1) == &rig.config.boards[0]);
+  CHECK(board_settings(rig, "/dev/C", 1) == &rig.config.boards[1]);  // by place
+  CHECK(board_settings(rig, "/dev/C", 2) == nullptr);
+  CHECK(rig_port(rig, "") == "/dev/A");
+  CHECK(board_settings(Rig{}, "/dev/A", 0) == nullptr);
+}
+
+TEST_CASE("rig: the song's motors take their range, transpose, tuning and mutes from the file", "[config]") {
+  const LiveConfig c = parse_config("[[boards]]\n"
+                                    "[[boards.motors]]\nlowest_note = 40\nhighest_note = 80\n"
+                                    "[[boards.motors]]\ntranspose = -12\ntuning_cents = 3.5\nmuted = [60]\n",
+                                    "m.toml");
+  const std::vector<MotorConfig> music = motor_music(&c.boards[0], 16001000, {1, 0, 3});
+  REQUIRE(music.size() == 3);
+  CHECK(music[0].transpose == -12);
+  CHECK(music[0].tuning_cents == 3.5);
+  CHECK(music[0].muted.test(60));
+  CHECK(music[1].lowest_note == 40);
+  CHECK(music[1].highest_note == 80);
+  CHECK(music[2].transpose == 0);  // not in the file: the defaults
+  CHECK(music[2].lowest_note == MotorConfig{}.lowest_note);
+  for (const MotorConfig &m : music) CHECK(m.f_cpu_hz == 16001000);
+  CHECK(motor_music(nullptr, 16000000, {0}).at(0).transpose == 0);
+}
