@@ -1,12 +1,9 @@
-// gcode.cpp: printer presets, the G-code planner (voices -> segments -> moves that bounce at the
-// borders) and the G-code writer. Pure: no I/O.
+// gcode.cpp: the G-code planner: voices -> segments -> moves that bounce at the borders.
+// Pure: no I/O.
 #include "song/gcode.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <map>
 #include <set>
 
@@ -14,48 +11,12 @@
 
 namespace stepchoir {
 
-extern const char kPrinterPresetsText[];  // host/data/printers.conf, generated at configure time
-
 namespace {
 
 // Two score times closer than this are one instant (MIDI tempo maps leave rounding dust), s.
 constexpr double kSameTimeS = 1e-7;
 // A carriage this close to a border is at it, mm (far below the 1e-5 mm the G-code writes).
 constexpr double kAtBorderMm = 1e-9;
-
-// Splits text at sep. Called by the field parsers.
-std::vector<std::string_view> split(std::string_view text, char sep) {
-  std::vector<std::string_view> out;
-  size_t start = 0;
-  for (;;) {
-    const size_t at = text.find(sep, start);
-    out.push_back(text.substr(start, at == std::string_view::npos ? std::string_view::npos : at - start));
-    if (at == std::string_view::npos) return out;
-    start = at + 1;
-  }
-}
-
-// A finite decimal number, the whole word (sign and fraction allowed). Called by the field
-// parsers; throws GcodeError naming where and what.
-double number(std::string_view w, const std::string &where, const char *what) {
-  const std::string s(w);
-  char *end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || errno || !std::isfinite(v) ||
-      s.find_first_of("xXnNiI") != std::string::npos)
-    throw GcodeError(where + ": expected a number for " + what + ", got '" + s + "'");
-  return v;
-}
-
-// Comma-separated numbers, one per axis: X,Y,Z or X,Y,Z,E (E left as it is when not given).
-// Called by make_printer.
-void per_axis(std::string_view w, const std::string &where, const char *what, double out[kGcodeAxes]) {
-  const auto parts = split(w, ',');
-  if (parts.size() != kCartesianAxes && parts.size() != kGcodeAxes)
-    throw GcodeError(where + ": expected " + what + " as X,Y,Z or X,Y,Z,E, got '" + std::string(w) + "'");
-  for (size_t a = 0; a < parts.size(); ++a) out[a] = number(parts[a], where, what);
-}
 
 // One voice's line, one note at a time: the highest sounding note wins.
 struct Piece {
@@ -101,85 +62,7 @@ std::vector<Piece> voice_line(const std::vector<const SongNote *> &notes, size_t
   return line;
 }
 
-// Formats a number with fixed decimals. Called by write_gcode.
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
 }  // namespace
-
-Printer make_printer(const std::string &name, std::string_view steps, std::string_view volume,
-                             std::string_view max_feed, const std::string &where) {
-  Printer p;
-  p.name = name;
-  double s[kGcodeAxes] = {0, 0, 0, 0}, f[kGcodeAxes] = {0, 0, 0, 0};
-  per_axis(steps, where, "steps/mm", s);
-  if (!max_feed.empty()) per_axis(max_feed, where, "max feed (mm/s)", f);
-  const auto ranges = split(volume, ',');
-  if (ranges.size() != kCartesianAxes)
-    throw GcodeError(where + ": expected the volume as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got '" + std::string(volume) + "'");
-  PrinterAxis &e = p.axes[kExtruderAxis];
-  e.steps_per_mm = s[kExtruderAxis];
-  e.min_mm = -kExtruderTravelMm;
-  e.max_mm = kExtruderTravelMm;
-  e.max_feed_mm_s = f[kExtruderAxis];
-  if (e.steps_per_mm < 0 || e.steps_per_mm > 1e6) throw GcodeError(where + ": E steps/mm must be 0 to 1000000");
-  if (e.max_feed_mm_s < 0) throw GcodeError(where + ": E's max feed is negative");
-  for (size_t a = 0; a < kCartesianAxes; ++a) {
-    const auto ends = split(ranges[a], ':');
-    if (ends.size() != 2)
-      throw GcodeError(where + ": expected " + kAxisNames[a] + "'s range as MIN:MAX, got '" + std::string(ranges[a]) + "'");
-    PrinterAxis &ax = p.axes[a];
-    ax.steps_per_mm = s[a];
-    ax.min_mm = number(ends[0], where, "the volume");
-    ax.max_mm = number(ends[1], where, "the volume");
-    ax.max_feed_mm_s = f[a];
-    if (!(ax.steps_per_mm > 0) || ax.steps_per_mm > 1e6)
-      throw GcodeError(where + ": " + kAxisNames[a] + " steps/mm must be above 0 and at most 1000000");
-    if (!(ax.max_mm - ax.min_mm >= kMinAxisLengthMm))
-      throw GcodeError(where + ": " + kAxisNames[a] + "'s range " + std::string(ranges[a]) + " is shorter than " +
-                       fixed(kMinAxisLengthMm, 0) + " mm");
-    if (ax.max_feed_mm_s < 0) throw GcodeError(where + ": " + kAxisNames[a] + "'s max feed is negative");
-  }
-  return p;
-}
-
-std::vector<Printer> parse_printers(std::string_view text, const std::string &source) {
-  std::vector<Printer> out;
-  int line_no = 0;
-  for (std::string_view line : split(text, '\n')) {
-    ++line_no;
-    const auto w = split_words(line.substr(0, line.find('#')));
-    if (w.empty()) continue;
-    const std::string where = source + ":" + std::to_string(line_no);
-    if (w.size() < 4)
-      throw GcodeError(where + ": expected 'name steps/mm volume max-feed description', e.g. "
-                               "'ender3 80,80,400 0:220,0:220,0:250 500,500,5 Ender-3'");
-    Printer p = make_printer(std::string(w[0]), w[1], w[2], w[3], where);
-    for (size_t i = 4; i < w.size(); ++i) p.description += (i > 4 ? " " : "") + std::string(w[i]);
-    for (const auto &q : out)
-      if (q.name == p.name) throw GcodeError(where + ": a second printer named '" + p.name + "'");
-    out.push_back(std::move(p));
-  }
-  if (out.empty()) throw GcodeError(source + ": no printers");
-  return out;
-}
-
-const std::vector<Printer> &builtin_printers() {
-  static const std::vector<Printer> presets = parse_printers(kPrinterPresetsText, "printers.conf");
-  return presets;
-}
-
-const Printer &find_printer(const std::vector<Printer> &printers, const std::string &name) {
-  std::string names;
-  for (const auto &p : printers) {
-    if (p.name == name) return p;
-    names += (names.empty() ? "" : ", ") + p.name;
-  }
-  throw GcodeError("no printer named '" + name + "'; known: " + names);
-}
 
 std::vector<Voice> voices_of(const Song &song) {
   std::map<std::pair<uint16_t, uint8_t>, size_t> counts;
@@ -258,7 +141,7 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       for (const auto &[note, count] : too_fast)
         names += (names.empty() ? "" : ", ") + note_name(note) + (count > 1 ? " (x" + std::to_string(count) + ")" : "");
       plan.warnings.push_back(std::string(1, kAxisNames[a]) + ": " + names + " need more than the max feed of " +
-                              fixed(ax.max_feed_mm_s, 1) + " mm/s; " +
+                              gcode_number(ax.max_feed_mm_s, 1) + " mm/s; " +
                               (options.fold_octaves ? "played octaves lower" : "kept (the printer will play them flat; --fold-octaves drops them octaves until they fit)"));
     }
   }
@@ -284,7 +167,7 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       }
   if (moves_bound > kMaxGcodeMoves)
     throw GcodeError("the song would take some " + std::to_string(static_cast<long long>(moves_bound)) +
-                     " moves (" + fixed(plan.duration_s, 0) + " s long), more than the " +
+                     " moves (" + gcode_number(plan.duration_s, 0) + " s long), more than the " +
                      std::to_string(kMaxGcodeMoves) + " a G-code file is allowed here");
 
   double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1, 1};
@@ -361,61 +244,6 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
     }
   }
   return plan;
-}
-
-std::string write_gcode(const GcodePlan &plan, const Printer &printer, const GcodeOptions &options,
-                        const std::string &title) {
-  const char *move = options.use_g1 ? "G1" : "G0";
-  auto coords = [&](const double *p) {
-    std::string s;
-    for (size_t a = 0; a < plan.axis_count; ++a) s += std::string(" ") + kAxisNames[a] + fixed(p[a], 5);
-    return s;
-  };
-  std::string out;
-  std::string safe_title = title;  // a comment line: no control characters
-  for (char &c : safe_title)
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) c = '?';
-  out += "; " + safe_title + "\n";
-  out += "; stepchoir gcode: printer " + printer.name + " (" + printer.description + ")\n";
-  out += "; steps/mm";
-  for (size_t a = 0; a < plan.axis_count; ++a)
-    out += std::string(" ") + kAxisNames[a] + fixed(printer.axes[a].steps_per_mm, 3);
-  out += ", steps per cycle " + fixed(options.steps_per_cycle, 3) + ", length " + fixed(plan.duration_s, 3) + " s\n";
-  for (size_t a = 0; a < plan.axis_voice.size(); ++a)
-    out += std::string("; ") + kAxisNames[a] + " plays track " + std::to_string(plan.axis_voice[a].track) +
-           " channel " + std::to_string(plan.axis_voice[a].channel) + "\n";
-  for (const auto &w : plan.warnings) out += "; warning: " + w + "\n";
-  out += "G21 ; millimetres\nG90 ; absolute positions\n";
-  if (options.home) out += "G28 ; home every axis\n";
-  // To the start: Z first (up, from a homed bed), then X and Y, each within its axis's max feed.
-  auto travel_mm_min = [&](size_t a) {
-    const double limit = printer.axes[a].max_feed_mm_s * 60.0;
-    return limit > 0 ? std::min(kTravelFeedMmPerMin, limit) : kTravelFeedMmPerMin;
-  };
-  out += std::string(move) + " Z" + fixed(plan.start_mm[2], 5) + " F" + fixed(travel_mm_min(2), 3) +
-         " ; to the middle of the volume\n";
-  out += std::string(move) + " X" + fixed(plan.start_mm[0], 5) + " Y" + fixed(plan.start_mm[1], 5) + " F" +
-         fixed(std::min(travel_mm_min(0), travel_mm_min(1)), 3) + "\n";
-  if (plan.axis_count > kExtruderAxis)
-    out += "M82 ; absolute extrusion\nG92 E0 ; the extruder starts at 0\n"
-           "M302 P1 ; allow cold extrusion: E sings without filament (unload it first)\n";
-  out += "M400 ; wait until there\n; song starts\n";
-  double exact_s = 0, written_s = 0;  // dwell times are whole milliseconds; the rounding is carried
-  for (const auto &st : plan.steps) {
-    exact_s += st.duration_s;
-    if (st.dwell) {
-      const long ms = std::lround((exact_s - written_s) * 1000.0);
-      if (ms > 0) out += "G4 P" + std::to_string(ms) + "\n";
-      written_s += ms / 1000.0;
-    } else {
-      out += std::string(move) + coords(st.pos_mm) + " F" + fixed(st.feed_mm_min, 3) + "\n";
-      written_s += st.duration_s;
-    }
-  }
-  out += "; song ends\nM400 ; wait for the last note\n";
-  if (plan.axis_count > kExtruderAxis) out += "M302 P0 ; cold extrusion prevented again\n";
-  out += "M84 ; motors off\n";
-  return out;
 }
 
 }  // namespace stepchoir

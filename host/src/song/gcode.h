@@ -131,6 +131,10 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
 // Name of a MIDI note as the .sng format writes it ("C#4", "A4"). Called by warnings and comments.
 std::string note_name(int midi_note);
 
+// v with `decimals` decimals, as G-code and messages write numbers. Called by the writer, the
+// planner's warnings and the preset checks.
+std::string gcode_number(double v, int decimals);
+
 }  // namespace stepchoir
 
 #endif  // STEPCHOIR_HOST_SONG_GCODE_H

@@ -1,0 +1,122 @@
+// printers.cpp: printer presets for `stepchoir gcode`: the preset format
+// (host/data/printers.conf), the built-in presets, lookup by name. Pure: no I/O.
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+#include "song/gcode.h"
+
+namespace stepchoir {
+
+extern const char kPrinterPresetsText[];  // host/data/printers.conf, generated at configure time
+
+namespace {
+
+// Splits text at sep. Called by the field parsers.
+std::vector<std::string_view> split(std::string_view text, char sep) {
+  std::vector<std::string_view> out;
+  size_t start = 0;
+  for (;;) {
+    const size_t at = text.find(sep, start);
+    out.push_back(text.substr(start, at == std::string_view::npos ? std::string_view::npos : at - start));
+    if (at == std::string_view::npos) return out;
+    start = at + 1;
+  }
+}
+
+// A finite decimal number, the whole word (sign and fraction allowed). Called by the field
+// parsers; throws GcodeError naming where and what.
+double number(std::string_view w, const std::string &where, const char *what) {
+  const std::string s(w);
+  char *end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || errno || !std::isfinite(v) ||
+      s.find_first_of("xXnNiI") != std::string::npos)
+    throw GcodeError(where + ": expected a number for " + what + ", got '" + s + "'");
+  return v;
+}
+
+// Comma-separated numbers, one per axis: X,Y,Z or X,Y,Z,E (E left as it is when not given).
+// Called by make_printer.
+void per_axis(std::string_view w, const std::string &where, const char *what, double out[kGcodeAxes]) {
+  const auto parts = split(w, ',');
+  if (parts.size() != kCartesianAxes && parts.size() != kGcodeAxes)
+    throw GcodeError(where + ": expected " + what + " as X,Y,Z or X,Y,Z,E, got '" + std::string(w) + "'");
+  for (size_t a = 0; a < parts.size(); ++a) out[a] = number(parts[a], where, what);
+}
+
+}  // namespace
+
+Printer make_printer(const std::string &name, std::string_view steps, std::string_view volume,
+                             std::string_view max_feed, const std::string &where) {
+  Printer p;
+  p.name = name;
+  double s[kGcodeAxes] = {0, 0, 0, 0}, f[kGcodeAxes] = {0, 0, 0, 0};
+  per_axis(steps, where, "steps/mm", s);
+  if (!max_feed.empty()) per_axis(max_feed, where, "max feed (mm/s)", f);
+  const auto ranges = split(volume, ',');
+  if (ranges.size() != kCartesianAxes)
+    throw GcodeError(where + ": expected the volume as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got '" + std::string(volume) + "'");
+  PrinterAxis &e = p.axes[kExtruderAxis];
+  e.steps_per_mm = s[kExtruderAxis];
+  e.min_mm = -kExtruderTravelMm;
+  e.max_mm = kExtruderTravelMm;
+  e.max_feed_mm_s = f[kExtruderAxis];
+  if (e.steps_per_mm < 0 || e.steps_per_mm > 1e6) throw GcodeError(where + ": E steps/mm must be 0 to 1000000");
+  if (e.max_feed_mm_s < 0) throw GcodeError(where + ": E's max feed is negative");
+  for (size_t a = 0; a < kCartesianAxes; ++a) {
+    const auto ends = split(ranges[a], ':');
+    if (ends.size() != 2)
+      throw GcodeError(where + ": expected " + kAxisNames[a] + "'s range as MIN:MAX, got '" + std::string(ranges[a]) + "'");
+    PrinterAxis &ax = p.axes[a];
+    ax.steps_per_mm = s[a];
+    ax.min_mm = number(ends[0], where, "the volume");
+    ax.max_mm = number(ends[1], where, "the volume");
+    ax.max_feed_mm_s = f[a];
+    if (!(ax.steps_per_mm > 0) || ax.steps_per_mm > 1e6)
+      throw GcodeError(where + ": " + kAxisNames[a] + " steps/mm must be above 0 and at most 1000000");
+    if (!(ax.max_mm - ax.min_mm >= kMinAxisLengthMm))
+      throw GcodeError(where + ": " + kAxisNames[a] + "'s range " + std::string(ranges[a]) + " is shorter than " +
+                       gcode_number(kMinAxisLengthMm, 0) + " mm");
+    if (ax.max_feed_mm_s < 0) throw GcodeError(where + ": " + kAxisNames[a] + "'s max feed is negative");
+  }
+  return p;
+}
+
+std::vector<Printer> parse_printers(std::string_view text, const std::string &source) {
+  std::vector<Printer> out;
+  int line_no = 0;
+  for (std::string_view line : split(text, '\n')) {
+    ++line_no;
+    const auto w = split_words(line.substr(0, line.find('#')));
+    if (w.empty()) continue;
+    const std::string where = source + ":" + std::to_string(line_no);
+    if (w.size() < 4)
+      throw GcodeError(where + ": expected 'name steps/mm volume max-feed description', e.g. "
+                               "'ender3 80,80,400 0:220,0:220,0:250 500,500,5 Ender-3'");
+    Printer p = make_printer(std::string(w[0]), w[1], w[2], w[3], where);
+    for (size_t i = 4; i < w.size(); ++i) p.description += (i > 4 ? " " : "") + std::string(w[i]);
+    for (const auto &q : out)
+      if (q.name == p.name) throw GcodeError(where + ": a second printer named '" + p.name + "'");
+    out.push_back(std::move(p));
+  }
+  if (out.empty()) throw GcodeError(source + ": no printers");
+  return out;
+}
+
+const std::vector<Printer> &builtin_printers() {
+  static const std::vector<Printer> presets = parse_printers(kPrinterPresetsText, "printers.conf");
+  return presets;
+}
+
+const Printer &find_printer(const std::vector<Printer> &printers, const std::string &name) {
+  std::string names;
+  for (const auto &p : printers) {
+    if (p.name == name) return p;
+    names += (names.empty() ? "" : ", ") + p.name;
+  }
+  throw GcodeError("no printer named '" + name + "'; known: " + names);
+}
+
+}  // namespace stepchoir
