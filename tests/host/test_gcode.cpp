@@ -9,6 +9,7 @@
 #include "../fuzz/fuzz_plan.h"
 #include "gcode_check.h"
 #include "smf_builder.h"
+#include "song/corexy_head.h"
 #include "song/gcode.h"
 #include "song/song.h"
 
@@ -59,9 +60,10 @@ std::string plan_error(const Song &song, const Printer &printer, const GcodeOpti
 
 }  // namespace
 
-TEST_CASE("gcode: the built-in presets are an Ender-3-like, a Prusa-MK3S-like and a generic printer") {
+TEST_CASE("gcode: the built-in presets: Ender-3, Prusa MK3S, Voron 2.4 and Prusa Core One likes, and a generic "
+          "printer") {
   const auto &p = builtin_printers();
-  REQUIRE(p.size() == 3);
+  REQUIRE(p.size() == 5);
   const Printer &e = find_printer(p, "ender3");
   CHECK(e.axes[0].steps_per_mm == 80);
   CHECK(e.axes[2].steps_per_mm == 400);
@@ -73,8 +75,17 @@ TEST_CASE("gcode: the built-in presets are an Ender-3-like, a Prusa-MK3S-like an
   CHECK(m.axes[0].steps_per_mm == 100);
   CHECK(m.axes[1].min_mm == -4);
   CHECK(m.description.find("Prusa-MK3S-like") == 0);
-  find_printer(p, "generic");
-  CHECK_THROWS_WITH(find_printer(p, "mk4"), "no printer named 'mk4'; known: ender3, prusa-mk3s, generic");
+  CHECK(m.kinematics == Kinematics::kCartesian);
+  const Printer &v = find_printer(p, "voron24");
+  CHECK(v.kinematics == Kinematics::kCoreXY);
+  CHECK(v.axes[0].steps_per_mm == 160);  // motor A: 200 full steps x 32 / 40 mm
+  CHECK(v.axes[2].steps_per_mm == 800);
+  CHECK(v.axes[0].max_mm == 350);
+  CHECK(v.description.find("Voron-2.4-like") == 0);  // the kinematics word is not part of it
+  CHECK(find_printer(p, "prusa-core-one").kinematics == Kinematics::kCoreXY);
+  CHECK(find_printer(p, "generic").kinematics == Kinematics::kCartesian);
+  CHECK_THROWS_WITH(find_printer(p, "mk4"),
+                    "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, generic");
 }
 
 TEST_CASE("gcode: bad printer descriptions say where and what") {
@@ -92,6 +103,7 @@ TEST_CASE("gcode: bad printer descriptions say where and what") {
       {"a 80,80,80 0:9,0:9,0:9", "p.conf:1: expected 'name steps/mm volume max-feed description'"},
       {"a 80,80,80 0:9,0:9,0:9 1,1,1\na 80,80,80 0:9,0:9,0:9 1,1,1", "p.conf:2: a second printer named 'a'"},
       {"# nothing\n", "p.conf: no printers"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=delta", "p.conf:1: kinematics 'delta': expected cartesian or corexy"},
   };
   for (const auto &[text, error] : cases) {
     INFO(text);
@@ -113,32 +125,86 @@ TEST_CASE("gcode: the sample songs on every preset: rates, times, volume, direct
     }
 }
 
+namespace {
+
+// A song of `voices` voices of 30 notes or rests each, MIDI 40-84, some with a lower note under
+// them (a chord: the higher note plays). Called by the generated-song tests.
+Song random_song(std::mt19937 &rng, int voices) {
+  std::vector<std::tuple<int, double, double, int>> rows;
+  for (int v = 0; v < voices; ++v) {
+    double t = 0;
+    for (int k = 0; k < 30; ++k) {
+      const double len = (1 + rng() % 8) / 16.0;
+      if (rng() % 4 == 0) {  // a rest
+        t += len;
+        continue;
+      }
+      const int note = 40 + static_cast<int>(rng() % 45);
+      rows.emplace_back(v, t, len, note);
+      if (rng() % 6 == 0) rows.emplace_back(v, t, len / 2, note - 3);
+      t += len;
+    }
+  }
+  return song_of(rows);
+}
+
+}  // namespace
+
 TEST_CASE("gcode: generated songs with rests, chords and three voices, on small and large volumes") {
   std::mt19937 rng(12345);
   for (int round = 0; round < 40; ++round) {
     INFO("round " << round);
-    std::vector<std::tuple<int, double, double, int>> rows;
-    const int voices = 1 + round % 3;
-    for (int v = 0; v < voices; ++v) {
-      double t = 0;
-      for (int k = 0; k < 30; ++k) {
-        const double len = (1 + rng() % 8) / 16.0;
-        if (rng() % 4 == 0) {  // a rest
-          t += len;
-          continue;
-        }
-        const int note = 40 + static_cast<int>(rng() % 45);
-        rows.emplace_back(v, t, len, note);
-        if (rng() % 6 == 0) rows.emplace_back(v, t, len / 2, note - 3);  // a chord: the higher note plays
-        t += len;
-      }
-    }
-    const Song s = song_of(rows);
+    const Song s = random_song(rng, 1 + round % 3);
     GcodeOptions o;
     o.steps_per_cycle = round % 2 ? 2.0 : 1.0;
     o.home = round % 5 == 0;
     round_trip(s, round % 4 == 0 ? box(3, 5, 2) : find_printer(builtin_printers(), "generic"), o);
   }
+}
+
+TEST_CASE("gcode: CoreXY: A and B sing their voices at their step rates, the head inside the volume") {
+  std::mt19937 rng(2024);
+  for (int round = 0; round < 40; ++round) {
+    INFO("round " << round);
+    const Song s = random_song(rng, 1 + round % 3);
+    Printer p = round % 4 == 0 ? box(3, 5, 2) : round % 4 == 1 ? box(40, 7, 10) : find_printer(builtin_printers(), "voron24");
+    p.kinematics = Kinematics::kCoreXY;
+    GcodeOptions o;
+    o.fold_octaves = true;
+    const auto d = round_trip(s, p, o);
+    const std::string text = write_gcode(plan_gcode(s, p, o), p, o, "t");
+    CHECK(text.find("; A plays track") != std::string::npos);
+    CHECK(text.find(", corexy\n") != std::string::npos);
+  }
+}
+
+TEST_CASE("gcode: CoreXY: at a side, the motor whose reversal leaves the head the longest way reverses") {
+  // A 100 x 10 mm bed, the head at the top side (y = 10) in the middle. A alone moves the head
+  // along (1, 1): up and out, so A reverses. With A and B at the same speed (pure X motion)
+  // the head is at no side it heads out of: nothing changes.
+  CoreXYHead h(50, 10, 0, 100, 0, 10, 1e-9);
+  h.set_speed(0, 2);
+  CHECK(h.vx() == 1);
+  CHECK(h.vy() == 1);
+  CHECK(h.heading_out());
+  REQUIRE(h.choose(3));
+  CHECK(h.vx() == -1);  // A reversed: down and left, 10 s to the bottom
+  CHECK(h.vy() == -1);
+  CHECK(h.time_to_side() == Approx(10));
+  h.set_speed(1, 2);  // B joins: (dA sA + dB sB) / 2 = (-2 + 2) / 2: the head moves along -y
+  CHECK(h.vx() == 0);
+  CHECK(h.vy() == -2);
+  // In a corner that the lone motor's line only touches, no way keeps the head in.
+  CoreXYHead c(100, 0, 0, 100, 0, 10, 1e-9);
+  c.set_speed(0, 2);
+  CHECK_FALSE(c.choose(1));
+  // The head lands on a side it reaches, not past it.
+  CoreXYHead e(99, 5, 0, 100, 0, 10, 1e-9);
+  e.set_speed(0, 2);
+  e.set_speed(1, 2);
+  e.advance(e.time_to_side());
+  CHECK(e.x() == 100);
+  CHECK(e.heading_out());
 }
 
 TEST_CASE("gcode: a two-track MIDI file with tempo changes") {

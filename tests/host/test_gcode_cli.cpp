@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -49,9 +51,9 @@ std::string scratch_file(const std::string &name, const std::string &bytes) {
 
 }  // namespace
 
-TEST_CASE("stepchoir gcode: the sample songs on the Ender-3 and Prusa presets decode back to the score") {
+TEST_CASE("stepchoir gcode: the sample songs on the Cartesian and CoreXY presets decode back to the score") {
   for (const char *file : {"9th.sng", "canon.sng", "furelise.sng"})
-    for (const char *printer : {"ender3", "prusa-mk3s"}) {
+    for (const char *printer : {"ender3", "prusa-mk3s", "voron24", "prusa-core-one"}) {
       INFO(file << " on " << printer);
       const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/" + file;
       const std::string out = std::string(STEPCHOIR_SCRATCH) + "/" + file + "." + printer + ".gcode";
@@ -67,7 +69,8 @@ TEST_CASE("stepchoir gcode: the sample songs on the Ender-3 and Prusa presets de
     }
 }
 
-TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out of four, all four with --extruder") {
+TEST_CASE("stepchoir gcode: a MIDI file on an own printer, four voices arranged for three axes, two chosen, "
+          "all four with --extruder") {
   smf::Track t;
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(0, {static_cast<uint8_t>(0x90 | ch), static_cast<uint8_t>(55 + 3 * ch), 100});
   for (uint8_t ch = 0; ch < 4; ++ch) t.ev(ch == 0 ? 960 : 0, {static_cast<uint8_t>(0x80 | ch), static_cast<uint8_t>(55 + 3 * ch), 0});
@@ -76,8 +79,28 @@ TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out
   const std::string mid = scratch_file("four.mid", std::string(bytes.begin(), bytes.end()));
   const std::string out = std::string(STEPCHOIR_SCRATCH) + "/four.gcode";
   std::string err;
-  CHECK(run_gcode(mid + " -o " + out + " --steps-per-mm 100,100,400 --volume 0:10,0:10,0:10", err) == 1);
-  CHECK(err.find("stepchoir gcode: the song has 4 voices and the printer 3 axes") != std::string::npos);
+  // Four voices, three axes: the arranger keeps the melody (the top note, E4) and the bass (G3).
+  REQUIRE(run_gcode(mid + " -o " + out + " --steps-per-mm 100,100,400 --volume 0:10,0:10,0:10", err) == 0);
+  CHECK(err.find("warning: the song has 4 voices and the printer 3 axes: arranged, melody first, then bass; 3 of 4 "
+                 "notes play (1 melody, 1 bass, 1 inner)") != std::string::npos);
+  {
+    const gcheck::Decoded d = gcheck::decode(slurp(out));
+    std::vector<int> sung;
+    for (size_t a = 0; a < kCartesianAxes; ++a) {
+      double mm = 0, s_total = 0;
+      for (const auto &m : d.moves) mm += std::fabs(m.to[a] - m.from[a]), s_total += m.duration_s;
+      const double steps_s = mm * (a == 2 ? 400 : 100) / s_total;
+      const double note = 69 + 12 * std::log2(steps_s / kDefaultStepsPerCycle / 440);
+      CHECK(std::fabs(note - std::round(note)) < 0.01);
+      sung.push_back(static_cast<int>(std::lround(note)));
+    }
+    std::sort(sung.begin(), sung.end());
+    INFO("sung " << sung[0] << " " << sung[1] << " " << sung[2]);
+    CHECK(sung.front() == 55);
+    CHECK(sung.back() == 64);
+    CHECK((sung[1] == 58 || sung[1] == 61));
+    CHECK(d.end_s == Approx(1.0).margin(1e-3));
+  }
   REQUIRE(run_gcode(mid + " -o " + out + " --steps-per-mm 100,100,400 --volume 0:10,0:10,0:10 --channels 3,0 "
                           "--max-feed 100,100,10",
                     err) == 0);
@@ -95,6 +118,28 @@ TEST_CASE("stepchoir gcode: a MIDI file on an own printer, two voices chosen out
   CHECK(d.cold_extrusion == false);  // allowed for the song, prevented again at its end
   gcheck::check(d, s, mk3s, plan_gcode(s, mk3s, with_e).axis_voice, kDefaultStepsPerCycle);
   CHECK(plan_gcode(s, mk3s, with_e).axis_voice.size() == 4);
+}
+
+TEST_CASE("stepchoir gcode: --kinematics corexy on an own printer: A and B sing the voices") {
+  const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/9th.sng";
+  const std::string out = std::string(STEPCHOIR_SCRATCH) + "/own-corexy.gcode";
+  std::string err;
+  REQUIRE(run_gcode(song + " -o " + out + " --steps-per-mm 80,80,400 --volume 0:60,0:40,0:20 --max-feed 300,300,5 "
+                           "--kinematics corexy --fold-octaves",
+                    err) == 0);
+  INFO(err);
+  CHECK(err.find("(corexy), A = track") != std::string::npos);
+  Printer p = make_printer("custom", "80,80,400", "0:60,0:40,0:20", "300,300,5", "test");
+  p.kinematics = Kinematics::kCoreXY;
+  const Song s = read_song_file(song);
+  GcodeOptions o;
+  o.fold_octaves = true;
+  gcheck::check(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, o).axis_voice, kDefaultStepsPerCycle, true);
+  // The same G-code read as a Cartesian printer's plays the wrong rates: the check can fail.
+  p.kinematics = Kinematics::kCartesian;
+  CHECK_FALSE(gcheck::problems(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, o).axis_voice,
+                               kDefaultStepsPerCycle, true).empty());
+  CHECK(run_gcode(song + " -o " + out + " --printer ender3 --kinematics delta", err) != 0);
 }
 
 TEST_CASE("stepchoir gcode: --printer-file reads presets from a file, and names the line of a bad one") {
@@ -129,7 +174,7 @@ TEST_CASE("stepchoir gcode: bad songs and options exit 1 with what and where") {
   }
   const std::string good = std::string(STEPCHOIR_SONGS_DIR) + "/9th.sng";
   const std::pair<std::string, std::string> options[] = {
-      {" --printer mk4", "no printer named 'mk4'; known: ender3, prusa-mk3s, generic"},
+      {" --printer mk4", "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, generic"},
       {" --printer ender3 --volume 0:1,0:1,0:1", "give either --printer or --steps-per-mm and --volume, not both"},
       {" --steps-per-mm 80,80,400", "--steps-per-mm and --volume go together"},
       {" --steps-per-mm 80,80 --volume 0:9,0:9,0:9", "options: expected steps/mm as X,Y,Z"},

@@ -2,10 +2,13 @@
 #include "cli/gcode_command.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
+#include "core/pitch.h"
+#include "player/plan.h"
 #include "song/gcode.h"
 #include "song/song.h"
 
@@ -22,7 +25,9 @@ Printer printer_of(const GcodeCommand &c) {
   if (custom) {
     if (c.max_feed.empty())
       std::fprintf(stderr, "stepchoir gcode: no --max-feed: feeds are not checked against the printer's limits\n");
-    return make_printer("custom", c.steps_per_mm, c.volume, c.max_feed, "options");
+    Printer p = make_printer("custom", c.steps_per_mm, c.volume, c.max_feed, "options");
+    if (!c.kinematics.empty()) p.kinematics = parse_kinematics(c.kinematics, "--kinematics");
+    return p;
   }
   std::vector<Printer> presets;
   if (!c.printer_file.empty()) {
@@ -40,6 +45,7 @@ Printer printer_of(const GcodeCommand &c) {
     std::fprintf(stderr, "stepchoir gcode: no --printer: using the generic preset (pitch is right only with its steps/mm)\n");
   }
   Printer p = find_printer(presets, name);
+  if (!c.kinematics.empty()) p.kinematics = parse_kinematics(c.kinematics, "--kinematics");
   if (!c.max_feed.empty()) {
     const Printer limits = make_printer(p.name, "1,1,1", "0:1,0:1,0:1", c.max_feed, "--max-feed");
     const bool with_e = std::count(c.max_feed.begin(), c.max_feed.end(), ',') == kGcodeAxes - 1;
@@ -63,12 +69,67 @@ std::vector<size_t> voices_option(const std::string &text) {
   return out;
 }
 
+// The highest note a motor at steps_per_mm with max_feed_mm_s (0: unchecked) sings at spc
+// steps a cycle. Called by arranged.
+uint8_t highest_note(const PrinterAxis &ax, double spc) {
+  int note = 127;
+  if (ax.max_feed_mm_s > 0)
+    while (note > 0 && note_hz(note) * spc / ax.steps_per_mm > ax.max_feed_mm_s) --note;
+  return static_cast<uint8_t>(note);
+}
+
+// A song with more voices than the printer has axes, as the arranger plays it on `axes`
+// motors (melody first, then bass; out-of-range notes folded by octaves): one voice a motor
+// (track = motor). Adds what it did to `warnings`. Called by GcodeCommand::run.
+Song arranged(const Song &song, const Printer &printer, size_t axes, double spc, size_t voices,
+              std::vector<std::string> &warnings) {
+  PlanOptions o;
+  for (size_t a = 0; a < axes; ++a) {
+    MotorConfig mc;
+    mc.lowest_note = 0;
+    mc.highest_note = highest_note(printer.axes[a], spc);
+    o.motors.push_back(mc);
+  }
+  o.min_note_s = 0;
+  const Plan plan = plan_song(song, o);
+  Song out;
+  out.duration_s = song.duration_s;
+  out.track_count = static_cast<uint16_t>(axes);
+  size_t roles[kRoleCount] = {};
+  for (const PlannedNote &n : plan.notes) {
+    SongNote s = song.notes[n.song_index];
+    s.onset_s = n.on_s;
+    s.duration_s = n.off_s - n.on_s;
+    s.midi_note = static_cast<uint8_t>(std::lround(n.pitch));
+    s.track = n.motor;
+    s.channel = 0;
+    if (s.duration_s > 0) out.notes.push_back(s);
+    ++roles[static_cast<size_t>(n.role)];
+  }
+  std::sort(out.notes.begin(), out.notes.end(), [](const SongNote &a, const SongNote &b) {
+    return a.onset_s != b.onset_s ? a.onset_s < b.onset_s : a.track < b.track;
+  });
+  std::string kept;
+  for (size_t r = 0; r < kRoleCount; ++r)
+    if (roles[r]) kept += (kept.empty() ? "" : ", ") + std::to_string(roles[r]) + " " + role_name(static_cast<Role>(r));
+  warnings.push_back("the song has " + std::to_string(voices) + " voices and the printer " + std::to_string(axes) +
+                     " axes: arranged, melody first, then bass; " + std::to_string(plan.notes.size()) + " of " +
+                     std::to_string(plan.selected) + " notes play (" + kept + "); --channels picks voices instead");
+  return out;
+}
+
 }  // namespace
 
 int GcodeCommand::run() const {
   try {
-    const Song s = read_song_file(song, tab_options(tab));
+    Song s = read_song_file(song, tab_options(tab));
     for (const auto &w : s.warnings) std::fprintf(stderr, "stepchoir gcode: warning: %s\n", w.c_str());
+    // Drum hits are not pitches: a printer does not sing them.
+    const size_t notes = s.notes.size();
+    s.notes.erase(std::remove_if(s.notes.begin(), s.notes.end(), [](const SongNote &n) { return n.percussion; }),
+                  s.notes.end());
+    std::vector<std::string> notices;
+    if (s.notes.size() != notes) notices.push_back(std::to_string(notes - s.notes.size()) + " drum hits left out");
     const Printer p = printer_of(*this);
     GcodeOptions o;
     o.steps_per_cycle = steps_per_cycle;
@@ -77,7 +138,10 @@ int GcodeCommand::run() const {
     o.use_g1 = use_g1;
     o.extruder = extruder;
     o.voice_of_axis = voices_option(channels);
-    const GcodePlan plan = plan_gcode(s, p, o);
+    const size_t axes = extruder ? kGcodeAxes : kCartesianAxes, voices = voices_of(s).size();
+    if (o.voice_of_axis.empty() && voices > axes) s = arranged(s, p, axes, steps_per_cycle, voices, notices);
+    GcodePlan plan = plan_gcode(s, p, o);
+    plan.warnings.insert(plan.warnings.begin(), notices.begin(), notices.end());
     for (const auto &w : plan.warnings) std::fprintf(stderr, "stepchoir gcode: warning: %s\n", w.c_str());
     const std::string text = write_gcode(plan, p, o, song);
     std::FILE *f = out == "-" ? stdout : std::fopen(out.c_str(), "w");
@@ -86,10 +150,10 @@ int GcodeCommand::run() const {
     if (f != stdout ? std::fclose(f) != 0 || !ok : std::fflush(f) != 0 || !ok) throw GcodeError(out + ": write failed");
     size_t moves = 0;
     for (const auto &st : plan.steps) moves += !st.dwell;
-    std::fprintf(stderr, "stepchoir gcode: %s: %zu moves, %.3f s, printer %s", out.c_str(), moves, plan.duration_s,
-                 p.name.c_str());
+    std::fprintf(stderr, "stepchoir gcode: %s: %zu moves, %.3f s, printer %s (%s)", out.c_str(), moves,
+                 plan.duration_s, p.name.c_str(), kinematics_name(p.kinematics));
     for (size_t a = 0; a < plan.axis_voice.size(); ++a)
-      std::fprintf(stderr, ", %c = track %u channel %u", kAxisNames[a], plan.axis_voice[a].track,
+      std::fprintf(stderr, ", %c = track %u channel %u", motor_name(p.kinematics, a), plan.axis_voice[a].track,
                    plan.axis_voice[a].channel);
     std::fprintf(stderr, "\n");
     return 0;
@@ -101,19 +165,25 @@ int GcodeCommand::run() const {
 
 std::unique_ptr<GcodeCommand> add_gcode_command(CLI::App &app) {
   auto c = std::make_unique<GcodeCommand>();
-  c->app = app.add_subcommand("gcode", "Write a song as G-code that makes a 3D printer's X, Y and Z motors sing");
+  c->app = app.add_subcommand("gcode", "Write a song as G-code that makes a 3D printer's motors sing (X, Y, Z; A, B, "
+                                      "Z on CoreXY)");
   CLI::App &g = *c->app;
   g.add_option("song", c->song, "Song file: Standard MIDI File (.mid), music2gcode song (.sng), tab (.tab) or "
                                 "MusicXML (.musicxml, .xml, .mxl)")
       ->required();
   add_tab_options(g, c->tab);
   g.add_option("-o,--output", c->out, "G-code file to write ('-': standard output)")->required();
-  g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, generic (default generic)");
+  g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, voron24, prusa-core-one, generic (default "
+                                       "generic)");
+  g.add_option("--kinematics", c->kinematics, "cartesian or corexy (overrides the preset's; default cartesian)")
+      ->check(CLI::IsMember({"cartesian", "corexy"}));
   g.add_option("--printer-file", c->printer_file, "Read the presets from this file (format of host/data/printers.conf)");
   g.add_option("--steps-per-mm", c->steps_per_mm, "Own printer: steps per mm as X,Y,Z or X,Y,Z,E (with --volume)");
   g.add_option("--volume", c->volume, "Own printer: travel as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX in mm");
   g.add_option("--max-feed", c->max_feed, "Max feed per axis as X,Y,Z or X,Y,Z,E in mm/s (overrides the preset's)");
-  g.add_option("--channels", c->channels, "Voices for X, Y, Z (and E), as numbers in the voice list (e.g. 2,0,1)");
+  g.add_option("--channels", c->channels,
+               "Voices for X, Y, Z (and E), as numbers in the voice list (e.g. 2,0,1); default: every voice, or the "
+               "arranger's choice (melody first, then bass) when there are more voices than axes");
   g.add_option("--steps-per-cycle", c->steps_per_cycle, "Steps per cycle of a note's frequency")
       ->default_val(kDefaultStepsPerCycle);
   g.add_flag("--home", c->home, "Home (G28) before moving to the start");

@@ -14,7 +14,7 @@ namespace stepchoir {
 // The subcommand's options, filled by CLI11.
 struct GcodeCommand {
   CLI::App *app = nullptr;
-  std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels;
+  std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels, kinematics;
   double steps_per_cycle = 0;
   bool home = false, fold_octaves = false, use_g1 = false, extruder = false;
   TabArgs tab;

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "core/pitch.h"
+#include "song/corexy_head.h"
 
 namespace stepchoir {
 
@@ -172,12 +173,22 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
 
   double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1, 1};
   for (size_t a = 0; a < kGcodeAxes; ++a) pos[a] = plan.start_mm[a] = (printer.axes[a].min_mm + printer.axes[a].max_mm) / 2;
+  // CoreXY: motors A and B move the head together (CoreXYHead); Z and E bounce on their own.
+  const bool corexy = printer.kinematics == Kinematics::kCoreXY;
+  const size_t first_single = corexy ? 2 : 0;  // the first axis that bounces on its own
+  CoreXYHead head(pos[0], pos[1], printer.axes[0].min_mm, printer.axes[0].max_mm, printer.axes[1].min_mm,
+                  printer.axes[1].max_mm, kAtBorderMm);
+  auto cornered = [&](double t) {
+    return GcodeError("the CoreXY head is cornered at X" + gcode_number(head.x(), 3) + " Y" + gcode_number(head.y(), 3) +
+                      " at " + gcode_number(t, 3) + " s: no direction of A and B keeps it inside");
+  };
   std::vector<size_t> cursor(used, 0);
   for (size_t s = 0; s + 1 < instants.size(); ++s) {
     GcodeSegment seg;
     seg.start_s = instants[s];
     seg.duration_s = instants[s + 1] - instants[s];
     double speed_mm_s[kGcodeAxes] = {0, 0, 0, 0};
+    unsigned head_onsets = 0;  // CoreXY: A (bit 0) and B (bit 1) notes that start here
     for (size_t a = 0; a < used; ++a) {
       const auto &l = lines[a];
       size_t &c = cursor[a];
@@ -188,15 +199,28 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       speed_mm_s[a] = note_hz(l[c].midi_note) * options.steps_per_cycle / ax.steps_per_mm;
       // A note starting here heads for the border with more room ahead of it; a note that goes
       // on keeps its direction.
-      if (l[c].onset && std::fabs(l[c].t0 - seg.start_s) <= kSameTimeS)
-        dir[a] = ax.max_mm - pos[a] >= pos[a] - ax.min_mm ? 1 : -1;
+      if (l[c].onset && std::fabs(l[c].t0 - seg.start_s) <= kSameTimeS) {
+        if (a < first_single)
+          head_onsets |= 1u << a;  // the head's way is chosen below, for A and B together
+        else
+          dir[a] = ax.max_mm - pos[a] >= pos[a] - ax.min_mm ? 1 : -1;
+      }
     }
     plan.segments.push_back(seg);
+    if (corexy) {
+      head.set_speed(0, speed_mm_s[0]);
+      head.set_speed(1, speed_mm_s[1]);
+      // New notes take the way that leaves the head the longest run to a side.
+      if (head_onsets && !head.choose(head_onsets)) throw cornered(seg.start_s);
+    }
     // Firmware measures a move's feed on X, Y and Z only (E follows); a move of E alone on E.
-    double combined = 0;
-    for (size_t a = 0; a < kCartesianAxes; ++a) combined += speed_mm_s[a] * speed_mm_s[a];
-    combined = combined > 0 ? std::sqrt(combined) : speed_mm_s[kExtruderAxis];
-    if (combined == 0) {
+    // On CoreXY the head's X and Y speeds change when one of A and B reverses: per piece.
+    auto feed_mm_s = [&] {
+      const double vx = corexy ? head.vx() : speed_mm_s[0], vy = corexy ? head.vy() : speed_mm_s[1];
+      const double xyz = std::sqrt(vx * vx + vy * vy + speed_mm_s[2] * speed_mm_s[2]);
+      return xyz > 0 ? xyz : speed_mm_s[kExtruderAxis];
+    };
+    if (std::all_of(speed_mm_s, speed_mm_s + kGcodeAxes, [](double v) { return v == 0; })) {
       GcodeStep d;
       d.dwell = true;
       d.duration_s = seg.duration_s;
@@ -212,7 +236,11 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
     double left_s = seg.duration_s;
     while (left_s > 0) {
       double dt = left_s;
-      for (size_t a = 0; a < used; ++a) {
+      if (corexy && head.moving()) {  // at a side: A, B or both reverse
+        if (head.heading_out() && !head.choose(3)) throw cornered(seg.start_s + seg.duration_s - left_s);
+        dt = std::min(dt, head.time_to_side());
+      }
+      for (size_t a = first_single; a < used; ++a) {
         if (speed_mm_s[a] == 0) continue;
         const PrinterAxis &ax = printer.axes[a];
         double room = dir[a] > 0 ? ax.max_mm - pos[a] : pos[a] - ax.min_mm;
@@ -223,7 +251,13 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         }
         dt = std::min(dt, room / speed_mm_s[a]);
       }
-      for (size_t a = 0; a < used; ++a) {
+      const double feed = feed_mm_s();  // the speeds of this piece, before any axis turns at its end
+      if (corexy) {
+        head.advance(dt);
+        pos[0] = head.x();
+        pos[1] = head.y();
+      }
+      for (size_t a = first_single; a < used; ++a) {
         if (speed_mm_s[a] == 0) continue;
         const PrinterAxis &ax = printer.axes[a];
         const double room = dir[a] > 0 ? ax.max_mm - pos[a] : pos[a] - ax.min_mm;
@@ -237,9 +271,12 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       if (dt <= 0) continue;  // an axis only turned round
       GcodeStep m;
       std::copy(pos, pos + kGcodeAxes, m.pos_mm);
-      m.feed_mm_min = combined * 60.0;
+      m.feed_mm_min = feed * 60.0;
       m.duration_s = dt;
       plan.steps.push_back(m);
+      if (plan.steps.size() > kMaxGcodeMoves)
+        throw GcodeError("the song takes more than the " + std::to_string(kMaxGcodeMoves) +
+                         " moves a G-code file is allowed here (at " + gcode_number(seg.start_s, 3) + " s)");
       left_s = dt < left_s ? left_s - dt : 0;
     }
   }

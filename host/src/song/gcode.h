@@ -38,7 +38,22 @@ class GcodeError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// One axis of a printer.
+// How a printer's motors move its head.
+// - kCartesian: X, Y and Z each have a motor.
+// - kCoreXY: motor A moves the head along X + Y and motor B along X - Y, both belts at once
+//   (Klipper's stepper_x and stepper_y; Marlin's COREXY; RepRapFirmware's M669 K1, whose motor
+//   positions are (X + Y) and (X - Y) times each motor's steps/mm). Z has its own motor.
+enum class Kinematics { kCartesian, kCoreXY };
+
+// "cartesian" or "corexy"; throws GcodeError naming where and the choices. Called by the
+// preset reader and the command's --kinematics.
+Kinematics parse_kinematics(std::string_view name, const std::string &where);
+const char *kinematics_name(Kinematics k);
+// The letter of the motor that plays axis index a's voice: X Y Z E, or A B Z E on CoreXY.
+char motor_name(Kinematics k, size_t a);
+
+// One axis of a printer. On CoreXY, axes X and Y give the head's range (min_mm, max_mm) and
+// motors A and B's steps per mm of X + Y and X - Y (M92 X and Y) and max feeds along them.
 struct PrinterAxis {
   double steps_per_mm = 0;   // firmware steps per millimetre (M92)
   double min_mm = 0;         // lowest coordinate the nozzle may reach
@@ -50,10 +65,12 @@ struct PrinterAxis {
 struct Printer {
   std::string name;
   std::string description;
+  Kinematics kinematics = Kinematics::kCartesian;
   PrinterAxis axes[kGcodeAxes];  // E: steps_per_mm 0 when unknown; range +-kExtruderTravelMm
 };
 
-// Parses presets in the format of host/data/printers.conf; source names the text in errors
+// Parses presets in the format of host/data/printers.conf (after the max feeds, an optional
+// "kinematics=corexy"); source names the text in errors
 // (source:line). Called by builtin_printers and the `stepchoir gcode` command. Throws GcodeError.
 std::vector<Printer> parse_printers(std::string_view text, const std::string &source);
 
@@ -118,7 +135,9 @@ struct GcodePlan {
 };
 
 // Plans the moves of a song on a printer: one segment per change of any voice, each split where
-// an axis reaches a border (it reverses at the same speed). Called by the command and tests.
+// an axis reaches a border (it reverses at the same speed; on CoreXY, where the head reaches a
+// side, A, B or both reverse, whichever leaves the head the longest way). Called by the command
+// and tests.
 // Throws GcodeError when the voices do not fit the axes or an option is invalid.
 GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOptions &options);
 

@@ -26,13 +26,14 @@ std::string write_gcode(const GcodePlan &plan, const Printer &printer, const Gco
   for (char &c : safe_title)
     if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) c = '?';
   out += "; " + safe_title + "\n";
-  out += "; stepchoir gcode: printer " + printer.name + " (" + printer.description + ")\n";
+  out += "; stepchoir gcode: printer " + printer.name + " (" + printer.description + "), " +
+         kinematics_name(printer.kinematics) + "\n";
   out += "; steps/mm";
   for (size_t a = 0; a < plan.axis_count; ++a)
-    out += std::string(" ") + kAxisNames[a] + gcode_number(printer.axes[a].steps_per_mm, 3);
+    out += std::string(" ") + motor_name(printer.kinematics, a) + gcode_number(printer.axes[a].steps_per_mm, 3);
   out += ", steps per cycle " + gcode_number(options.steps_per_cycle, 3) + ", length " + gcode_number(plan.duration_s, 3) + " s\n";
   for (size_t a = 0; a < plan.axis_voice.size(); ++a)
-    out += std::string("; ") + kAxisNames[a] + " plays track " + std::to_string(plan.axis_voice[a].track) +
+    out += std::string("; ") + motor_name(printer.kinematics, a) + " plays track " + std::to_string(plan.axis_voice[a].track) +
            " channel " + std::to_string(plan.axis_voice[a].channel) + "\n";
   for (const auto &w : plan.warnings) out += "; warning: " + w + "\n";
   out += "G21 ; millimetres\nG90 ; absolute positions\n";

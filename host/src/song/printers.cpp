@@ -96,13 +96,29 @@ std::vector<Printer> parse_printers(std::string_view text, const std::string &so
       throw GcodeError(where + ": expected 'name steps/mm volume max-feed description', e.g. "
                                "'ender3 80,80,400 0:220,0:220,0:250 500,500,5 Ender-3'");
     Printer p = make_printer(std::string(w[0]), w[1], w[2], w[3], where);
-    for (size_t i = 4; i < w.size(); ++i) p.description += (i > 4 ? " " : "") + std::string(w[i]);
+    size_t first = 4;
+    if (w.size() > first && w[first].substr(0, 11) == "kinematics=")
+      p.kinematics = parse_kinematics(w[first++].substr(11), where);
+    for (size_t i = first; i < w.size(); ++i) p.description += (i > first ? " " : "") + std::string(w[i]);
     for (const auto &q : out)
       if (q.name == p.name) throw GcodeError(where + ": a second printer named '" + p.name + "'");
     out.push_back(std::move(p));
   }
   if (out.empty()) throw GcodeError(source + ": no printers");
   return out;
+}
+
+Kinematics parse_kinematics(std::string_view name, const std::string &where) {
+  if (name == "cartesian") return Kinematics::kCartesian;
+  if (name == "corexy") return Kinematics::kCoreXY;
+  throw GcodeError(where + ": kinematics '" + std::string(name) + "': expected cartesian or corexy");
+}
+
+const char *kinematics_name(Kinematics k) { return k == Kinematics::kCoreXY ? "corexy" : "cartesian"; }
+
+char motor_name(Kinematics k, size_t a) {
+  if (k == Kinematics::kCoreXY && a < 2) return a == 0 ? 'A' : 'B';
+  return kAxisNames[a];
 }
 
 const std::vector<Printer> &builtin_printers() {
