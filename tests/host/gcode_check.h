@@ -1,4 +1,4 @@
-// gcode_check.h: decodes stepchoir's G-code back into moves and times, and checks it against the
+// gcode_check.h: checks stepchoir's G-code, read back into moves and times, against the
 // song it came from (step rates, segment times, volume, directions, last note). Used by the
 // G-code unit tests and the end-to-end test of `stepchoir gcode`.
 #ifndef STEPCHOIR_TESTS_GCODE_CHECK_H
@@ -14,90 +14,22 @@
 
 #include "core/pitch.h"
 #include "song/gcode.h"
+#include "song/gcode_reader.h"
 #include "song/song.h"
 
 namespace gcheck {
 
 using namespace stepchoir;
 
-// One decoded line of the song part: a move or a dwell, with when it starts and how long it lasts.
-struct Move {
-  bool dwell = false;
-  double from[kGcodeAxes] = {0, 0, 0, 0}, to[kGcodeAxes] = {0, 0, 0, 0};
-  double feed_mm_min = 0, start_s = 0, duration_s = 0;
-};
+// A decoded line of the song part, and what a G-code text says (song/gcode_reader.h).
+using Move = GcodeMove;
+using Decoded = ReadGcode;
 
-// What a G-code text says.
-struct Decoded {
-  bool homed = false, millimetres = false, absolute = false, cold_extrusion = false;
-  double start[kGcodeAxes] = {0, 0, 0, 0};  // position when the song starts
-  std::vector<Move> moves;
-  double end_s = 0;
-};
-
-// Decodes G0/G1 (X Y Z E F, modal), G4 P, G21, G90, G28, G92 E0, M302 P; the song is between
-// "; song starts" and "; song ends". A move lasts its X/Y/Z distance over the feed, or its E
-// distance when only E moves (as Marlin and Klipper time them). Called by the tests.
+// Reads the G-code (read_gcode) and checks that the song part ends. Called by the tests.
 inline Decoded decode(const std::string &text) {
-  Decoded d;
-  std::istringstream in(text);
-  std::string line;
-  double pos[kGcodeAxes] = {0, 0, 0, 0}, feed = 0, t = 0;
-  bool in_song = false, ended = false;
-  while (std::getline(in, line)) {
-    if (line == "; song starts") {
-      in_song = true;
-      std::copy(pos, pos + kGcodeAxes, d.start);
-    }
-    if (line == "; song ends") ended = true, in_song = false;
-    std::istringstream words(line.substr(0, line.find(';')));
-    std::string w;
-    if (!(words >> w)) continue;
-    if (w == "G21") d.millimetres = true;
-    else if (w == "G90") d.absolute = true;
-    else if (w == "G28") d.homed = true;
-    else if (w == "G92") pos[kExtruderAxis] = 0;
-    else if (w == "M302") {
-      words >> w;
-      d.cold_extrusion = w == "P1";
-    }
-    else if (w == "G4") {
-      std::string p;
-      words >> p;
-      REQUIRE(p[0] == 'P');
-      Move m;
-      m.dwell = true;
-      m.start_s = t;
-      m.duration_s = std::stod(p.substr(1)) / 1000.0;
-      std::copy(pos, pos + kGcodeAxes, m.from);
-      std::copy(pos, pos + kGcodeAxes, m.to);
-      t += m.duration_s;
-      if (in_song) d.moves.push_back(m);
-    } else if (w == "G0" || w == "G1") {
-      Move m;
-      std::copy(pos, pos + kGcodeAxes, m.from);
-      while (words >> w) {
-        const double v = std::stod(w.substr(1));
-        if (w[0] == 'F') feed = v;
-        for (size_t a = 0; a < kGcodeAxes; ++a)
-          if (w[0] == kAxisNames[a]) pos[a] = v;
-      }
-      std::copy(pos, pos + kGcodeAxes, m.to);
-      double dist = 0;
-      for (size_t a = 0; a < kCartesianAxes; ++a) dist += (m.to[a] - m.from[a]) * (m.to[a] - m.from[a]);
-      if (dist == 0) dist = (m.to[kExtruderAxis] - m.from[kExtruderAxis]) * (m.to[kExtruderAxis] - m.from[kExtruderAxis]);
-      REQUIRE(feed > 0);
-      m.feed_mm_min = feed;
-      m.start_s = t;
-      m.duration_s = std::sqrt(dist) / feed * 60.0;
-      if (in_song) {
-        t += m.duration_s;
-        d.moves.push_back(m);
-      }
-    }
-  }
-  CHECK(ended);
-  d.end_s = t;
+  Decoded d = read_gcode(text);
+  CHECK(d.song_started);
+  CHECK(d.song_ended);
   return d;
 }
 
