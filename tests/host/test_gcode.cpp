@@ -11,6 +11,8 @@
 #include "smf_builder.h"
 #include "song/corexy_head.h"
 #include "song/gcode.h"
+#include "song/gcode_reader.h"
+#include "song/motion_model.h"
 #include "song/song.h"
 
 using namespace stepchoir;
@@ -333,8 +335,9 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
   o.home = true;
   o.use_g1 = true;
   const std::string text = write_gcode(plan_gcode(s, box(100, 100, 100), o), box(100, 100, 100), o, "song");
-  CHECK(text.find("G21 ; millimetres\nG90 ; absolute positions\nG28 ; home every axis\nG1 Z50.00000 F3000.000 ; to the "
-                  "middle of the volume\nG1 X50.00000 Y50.00000 F3000.000\n") != std::string::npos);
+  CHECK(text.find("G21 ; millimetres\nG90 ; absolute positions\n") != std::string::npos);
+  CHECK(text.find("G28 ; home every axis\nG1 Z50.00000 F3000.000 ; to the middle of the volume\nG1 X50.00000 "
+                  "Y50.00000 F3000.000\n") != std::string::npos);
   CHECK(text.find("G0 ") == std::string::npos);
   CHECK(text.find("; song ends\nM400") != std::string::npos);
   const auto d = gcheck::decode(text);
@@ -349,6 +352,97 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
         std::string::npos);
   o.steps_per_cycle = 0;
   CHECK(plan_error(s, box(100, 100, 100), o) == "steps per cycle must be above 0 and at most 64");
+}
+
+TEST_CASE("gcode: each firmware's header raises the motion limits to the preset's safe figures, its footer puts "
+          "the printer's own back") {
+  const Song s = song_of({{0, 0, 1, 60}});
+  const Printer &e = find_printer(builtin_printers(), "ender3");
+  struct Case {
+    Firmware f;
+    const char *set, *restore;
+  };
+  const Case cases[] = {
+      {Firmware::kMarlin, "M201 X2000 Y2000 ;", "M501 ;"},
+      {Firmware::kKlipper, "SET_VELOCITY_LIMIT ACCEL=2000 SQUARE_CORNER_VELOCITY=15.0 MINIMUM_CRUISE_RATIO=0.00 ;",
+       "SET_VELOCITY_LIMIT ACCEL=500 SQUARE_CORNER_VELOCITY=10.0 MINIMUM_CRUISE_RATIO=0.50 ;"},
+      {Firmware::kRepRap, "M566 X900 Y900 ;", "M566 X600 Y600 ;"},
+  };
+  for (const Case &c : cases) {
+    INFO(firmware_name(c.f));
+    GcodeOptions o;
+    o.flavor = c.f;
+    const std::string text = write_gcode(plan_gcode(s, e, o), e, o, "song");
+    const size_t song_at = text.find("; song starts"), end_at = text.find("; song ends");
+    CHECK(text.find(c.set) < song_at);
+    CHECK(text.find(c.restore) > end_at);
+    CHECK(text.find(std::string(", firmware ") + firmware_name(c.f)) != std::string::npos);
+    const ReadGcode d = read_gcode(text);
+    CHECK(d.restores_settings);
+    const MotionLimits l = with_settings(printer_limits(e, c.f, false), d.song_settings);
+    CHECK(l.accel_mm_s2 == 2000);  // the safe figure, read back as the firmware takes it
+    if (c.f == Firmware::kKlipper) CHECK(l.min_cruise_ratio == 0);
+    if (c.f == Firmware::kRepRap) CHECK(l.jerk_mm_s[0] == 15);
+    if (c.f == Firmware::kMarlin) CHECK(l.junction_deviation_mm == Approx(0.4 * 15 * 15 / 2000).margin(1e-4));
+    o.set_limits = false;
+    const ReadGcode kept = read_gcode(write_gcode(plan_gcode(s, e, o), e, o, "song"));
+    CHECK(kept.song_settings.accel_mm_s2 < 0);  // nothing set
+    CHECK_FALSE(kept.restores_settings);
+  }
+}
+
+TEST_CASE("gcode: on the motion model the sample songs play at least 95 % of their note time in tune on the "
+          "Ender-3 and Voron presets, more than with the printers' own limits") {
+  for (const char *name : {"ender3", "voron24"})
+    for (const char *file : {"9th.sng", "canon.sng", "furelise.sng"}) {
+      INFO(file << " on " << name);
+      const Printer &p = find_printer(builtin_printers(), name);
+      const Song s = read_song_file(std::string(STEPCHOIR_SONGS_DIR) + "/" + file);
+      GcodeOptions o;
+      o.fold_octaves = true;
+      o.flavor = p.motion.firmware;
+      const HeaderEffect e = header_effect(s, p, o);
+      const MotionReport &before = e.own, &after = e.header;
+      INFO("in tune: " << 100 * before.share() << " % before, " << 100 * after.share() << " % after");
+      CHECK(after.share() >= 0.95);
+      CHECK(after.share() > before.share());
+      CHECK(after.moves == before.moves);
+      CHECK(after.note_s >= after.written_s * 0.999);  // accelerating never makes a move quicker
+    }
+}
+
+TEST_CASE("gcode: the motion model: a lone move ramps up and down, a reversal stops, straight on keeps speed") {
+  // X: 10 mm at 10 mm/s, accel 1000 mm/s^2: 10 ms up and 10 ms down (0.05 mm each), 9.9 mm at
+  // cruise (0.99 s).
+  ReadGcode g;
+  GcodeMove m;
+  m.to[0] = 10;
+  m.feed_mm_min = 600;
+  m.duration_s = 1;
+  g.moves.push_back(m);
+  MotionLimits l;
+  l.accel_mm_s2 = 1000;
+  MotionReport r = model_motion(g, l);
+  CHECK(r.note_s == Approx(1.01));
+  CHECK(r.in_tune_s == Approx(0.99 + 2 * 10 * (1 - std::pow(2.0, -5 / 1200.0)) / 1000).epsilon(1e-6));
+  // Straight on at the same speed: no stop between the two halves.
+  GcodeMove back = m;
+  back.from[0] = 10;
+  back.to[0] = 20;
+  g.moves.push_back(back);
+  r = model_motion(g, l);
+  CHECK(r.note_s == Approx(2.01));
+  // A reversal stops: each move ramps both ways.
+  g.moves[1].to[0] = 0;
+  r = model_motion(g, l);
+  CHECK(r.note_s == Approx(2.02));
+  // Klipper's minimum cruise ratio caps a short move's top speed: 0.02 mm cannot reach 10 mm/s.
+  g.moves.resize(1);
+  g.moves[0].to[0] = 0.02;
+  l.firmware = Firmware::kKlipper;
+  l.min_cruise_ratio = 0.5;
+  r = model_motion(g, l);
+  CHECK(r.in_tune_s == 0);
 }
 
 TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to a denormal room hung)") {

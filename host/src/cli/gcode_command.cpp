@@ -138,6 +138,8 @@ int GcodeCommand::run() const {
     o.use_g1 = use_g1;
     o.extruder = extruder;
     o.voice_of_axis = voices_option(channels);
+    o.flavor = flavor.empty() ? p.motion.firmware : parse_firmware(flavor, "--flavor");
+    o.set_limits = !keep_limits;
     const size_t axes = extruder ? kGcodeAxes : kCartesianAxes, voices = voices_of(s).size();
     if (o.voice_of_axis.empty() && voices > axes) s = arranged(s, p, axes, steps_per_cycle, voices, notices);
     GcodePlan plan = plan_gcode(s, p, o);
@@ -186,6 +188,12 @@ std::unique_ptr<GcodeCommand> add_gcode_command(CLI::App &app) {
                "arranger's choice (melody first, then bass) when there are more voices than axes");
   g.add_option("--steps-per-cycle", c->steps_per_cycle, "Steps per cycle of a note's frequency")
       ->default_val(kDefaultStepsPerCycle);
+  g.add_option("--flavor", c->flavor, "Firmware whose commands set the motion limits: marlin, klipper, reprap "
+                                     "(default: the preset's)")
+      ->check(CLI::IsMember({"marlin", "klipper", "reprap"}));
+  g.add_flag("--keep-limits", c->keep_limits,
+             "Leave the printer's acceleration and corner speed as they are (default: raise them to the preset's safe "
+             "figures for the song, so notes reach their pitch sooner, and put them back at the end)");
   g.add_flag("--home", c->home, "Home (G28) before moving to the start");
   g.add_flag("--fold-octaves", c->fold_octaves, "Play notes too fast for an axis octaves lower (default: warn)");
   g.add_flag("--g1", c->use_g1, "Write G1 moves instead of G0 (firmware that runs G0 at a fixed speed)");

@@ -14,9 +14,9 @@ namespace stepchoir {
 // The subcommand's options, filled by CLI11.
 struct GcodeCommand {
   CLI::App *app = nullptr;
-  std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels, kinematics;
+  std::string song, out, printer, printer_file, steps_per_mm, volume, max_feed, channels, kinematics, flavor;
   double steps_per_cycle = 0;
-  bool home = false, fold_octaves = false, use_g1 = false, extruder = false;
+  bool home = false, fold_octaves = false, use_g1 = false, extruder = false, keep_limits = false;
   TabArgs tab;
 
   // Reads the song, plans and writes the G-code; returns the exit code (errors on stderr).

@@ -52,6 +52,27 @@ const char *kinematics_name(Kinematics k);
 // The letter of the motor that plays axis index a's voice: X Y Z E, or A B Z E on CoreXY.
 char motor_name(Kinematics k, size_t a);
 
+// The firmware a printer runs: its motion planner (song/motion_model.h) and the commands that
+// set its limits (M201/M204/M205 on Marlin, SET_VELOCITY_LIMIT on Klipper, M201/M204/M566 on
+// RepRapFirmware).
+enum class Firmware { kMarlin, kKlipper, kRepRap };
+
+// "marlin", "klipper" or "reprap"; throws GcodeError naming where and the choices.
+Firmware parse_firmware(std::string_view name, const std::string &where);
+const char *firmware_name(Firmware f);
+
+// A printer's motion limits: what its firmware runs with by itself (stock) and the most the
+// song's header sets (safe). Acceleration of X and Y in mm/s^2; "corner" in mm/s: Marlin's
+// classic jerk (its junction deviation J = 0.4 corner^2 / accel), Klipper's square corner
+// velocity, RepRapFirmware's M566 jerk of X and Y.
+struct PrinterMotion {
+  Firmware firmware = Firmware::kMarlin;
+  double accel_stock = 500, accel_safe = 2000;
+  double corner_stock = 10, corner_safe = 15;
+  double z_accel = 100;              // Z's acceleration limit (M201 Z; Klipper max_z_accel)
+  double cruise_ratio_stock = 0.5;   // Klipper's minimum_cruise_ratio (the header sets 0)
+};
+
 // One axis of a printer. On CoreXY, axes X and Y give the head's range (min_mm, max_mm) and
 // motors A and B's steps per mm of X + Y and X - Y (M92 X and Y) and max feeds along them.
 struct PrinterAxis {
@@ -66,11 +87,12 @@ struct Printer {
   std::string name;
   std::string description;
   Kinematics kinematics = Kinematics::kCartesian;
+  PrinterMotion motion;
   PrinterAxis axes[kGcodeAxes];  // E: steps_per_mm 0 when unknown; range +-kExtruderTravelMm
 };
 
-// Parses presets in the format of host/data/printers.conf (after the max feeds, an optional
-// "kinematics=corexy"); source names the text in errors
+// Parses presets in the format of host/data/printers.conf (after the max feeds, optional
+// key=value words: kinematics, firmware, accel, corner, zaccel); source names the text in errors
 // (source:line). Called by builtin_printers and the `stepchoir gcode` command. Throws GcodeError.
 std::vector<Printer> parse_printers(std::string_view text, const std::string &source);
 
@@ -107,6 +129,9 @@ struct GcodeOptions {
   bool use_g1 = false;            // G1 instead of G0 (firmware that runs G0 at a fixed speed)
   bool extruder = false;          // E sings a fourth voice (cold extrusion allowed: unload the filament)
   std::vector<size_t> voice_of_axis;  // voices_of() index per axis, X first; empty: voices in order
+  Firmware flavor = Firmware::kMarlin;  // whose commands set the motion limits
+  bool set_limits = true;         // the header raises acceleration and corner speed to the
+                                  // printer's safe figures, and the footer puts its own back
 };
 
 // One G-code line of the song: a move (G0 to pos_mm at feed_mm_min) or a dwell (G4).

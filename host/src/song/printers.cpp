@@ -46,6 +46,36 @@ void per_axis(std::string_view w, const std::string &where, const char *what, do
   for (size_t a = 0; a < parts.size(); ++a) out[a] = number(parts[a], where, what);
 }
 
+// "STOCK:SAFE" as two numbers. Called by read_key.
+void stock_and_safe(std::string_view v, const std::string &where, const char *what, double &stock, double &safe) {
+  const auto parts = split(v, ':');
+  if (parts.size() != 2) throw GcodeError(where + ": expected " + what + "=STOCK:SAFE, got '" + std::string(v) + "'");
+  stock = number(parts[0], where, what);
+  safe = number(parts[1], where, what);
+  if (!(stock > 0) || !(safe >= stock))
+    throw GcodeError(where + ": " + what + " " + std::string(v) + ": both above 0, the safe figure at least the stock");
+}
+
+// One key=value word of a preset line. Called by parse_printers.
+void read_key(std::string_view word, const std::string &where, Printer &p) {
+  const size_t eq = word.find('=');
+  const std::string_view key = word.substr(0, eq), value = word.substr(eq + 1);
+  if (key == "kinematics") {
+    p.kinematics = parse_kinematics(value, where);
+  } else if (key == "firmware") {
+    p.motion.firmware = parse_firmware(value, where);
+  } else if (key == "accel") {
+    stock_and_safe(value, where, "accel", p.motion.accel_stock, p.motion.accel_safe);
+  } else if (key == "corner") {
+    stock_and_safe(value, where, "corner", p.motion.corner_stock, p.motion.corner_safe);
+  } else if (key == "zaccel") {
+    p.motion.z_accel = number(value, where, "zaccel");
+    if (!(p.motion.z_accel > 0)) throw GcodeError(where + ": zaccel must be above 0");
+  } else {
+    throw GcodeError(where + ": unknown key '" + std::string(key) + "' (kinematics, firmware, accel, corner, zaccel)");
+  }
+}
+
 }  // namespace
 
 Printer make_printer(const std::string &name, std::string_view steps, std::string_view volume,
@@ -97,8 +127,8 @@ std::vector<Printer> parse_printers(std::string_view text, const std::string &so
                                "'ender3 80,80,400 0:220,0:220,0:250 500,500,5 Ender-3'");
     Printer p = make_printer(std::string(w[0]), w[1], w[2], w[3], where);
     size_t first = 4;
-    if (w.size() > first && w[first].substr(0, 11) == "kinematics=")
-      p.kinematics = parse_kinematics(w[first++].substr(11), where);
+    for (; first < w.size() && w[first].find('=') != std::string_view::npos; ++first)
+      read_key(w[first], where, p);
     for (size_t i = first; i < w.size(); ++i) p.description += (i > first ? " " : "") + std::string(w[i]);
     for (const auto &q : out)
       if (q.name == p.name) throw GcodeError(where + ": a second printer named '" + p.name + "'");
@@ -112,6 +142,17 @@ Kinematics parse_kinematics(std::string_view name, const std::string &where) {
   if (name == "cartesian") return Kinematics::kCartesian;
   if (name == "corexy") return Kinematics::kCoreXY;
   throw GcodeError(where + ": kinematics '" + std::string(name) + "': expected cartesian or corexy");
+}
+
+Firmware parse_firmware(std::string_view name, const std::string &where) {
+  if (name == "marlin") return Firmware::kMarlin;
+  if (name == "klipper") return Firmware::kKlipper;
+  if (name == "reprap") return Firmware::kRepRap;
+  throw GcodeError(where + ": firmware '" + std::string(name) + "': expected marlin, klipper or reprap");
+}
+
+const char *firmware_name(Firmware f) {
+  return f == Firmware::kKlipper ? "klipper" : f == Firmware::kRepRap ? "reprap" : "marlin";
 }
 
 const char *kinematics_name(Kinematics k) { return k == Kinematics::kCoreXY ? "corexy" : "cartesian"; }
