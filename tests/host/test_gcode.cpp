@@ -9,46 +9,16 @@
 #include "../fuzz/fuzz_plan.h"
 #include "gcode_check.h"
 #include "smf_builder.h"
-#include "song/corexy_head.h"
 #include "song/gcode.h"
-#include "song/gcode_reader.h"
-#include "song/motion_model.h"
 #include "song/song.h"
 
 using namespace stepchoir;
+using gcheck::box;
+using gcheck::round_trip;
+using gcheck::song_of;
+using gcheck::random_song;
 
 namespace {
-
-// A song from (voice, onset, duration, note) rows; voice is the track. Called by the tests.
-Song song_of(const std::vector<std::tuple<int, double, double, int>> &rows) {
-  Song s;
-  for (const auto &[voice, onset, duration, note] : rows) {
-    SongNote n;
-    n.track = static_cast<uint16_t>(voice);
-    n.onset_s = onset;
-    n.duration_s = duration;
-    n.midi_note = static_cast<uint8_t>(note);
-    n.velocity = 100;
-    s.notes.push_back(n);
-    s.track_count = std::max<uint16_t>(s.track_count, static_cast<uint16_t>(voice + 1));
-  }
-  finish_song(s, 0);
-  return s;
-}
-
-// A printer with the given X, Y, Z lengths from 0 and 80/80/400 steps/mm, no feed limit.
-Printer box(double x, double y, double z) {
-  return make_printer("box", "80,80,400",
-                      "0:" + std::to_string(x) + ",0:" + std::to_string(y) + ",0:" + std::to_string(z), "", "test");
-}
-
-// Plans, writes, decodes and checks a song; returns the decoded G-code. Called by the tests.
-gcheck::Decoded round_trip(const Song &song, const Printer &printer, const GcodeOptions &o = {}) {
-  const GcodePlan plan = plan_gcode(song, printer, o);
-  const gcheck::Decoded d = gcheck::decode(write_gcode(plan, printer, o, "test"));
-  gcheck::check(d, song, printer, plan.axis_voice, o.steps_per_cycle, o.fold_octaves);
-  return d;
-}
 
 // The message plan_gcode throws, or "".
 std::string plan_error(const Song &song, const Printer &printer, const GcodeOptions &o = {}) {
@@ -62,10 +32,10 @@ std::string plan_error(const Song &song, const Printer &printer, const GcodeOpti
 
 }  // namespace
 
-TEST_CASE("gcode: the built-in presets: Ender-3, Prusa MK3S, Voron 2.4 and Prusa Core One likes, and a generic "
-          "printer") {
+TEST_CASE("gcode: the built-in presets: Ender-3, Prusa MK3S, Voron 2.4, Prusa Core One and Kossel likes, and a "
+          "generic printer") {
   const auto &p = builtin_printers();
-  REQUIRE(p.size() == 5);
+  REQUIRE(p.size() == 6);
   const Printer &e = find_printer(p, "ender3");
   CHECK(e.axes[0].steps_per_mm == 80);
   CHECK(e.axes[2].steps_per_mm == 400);
@@ -86,8 +56,12 @@ TEST_CASE("gcode: the built-in presets: Ender-3, Prusa MK3S, Voron 2.4 and Prusa
   CHECK(v.description.find("Voron-2.4-like") == 0);  // the kinematics word is not part of it
   CHECK(find_printer(p, "prusa-core-one").kinematics == Kinematics::kCoreXY);
   CHECK(find_printer(p, "generic").kinematics == Kinematics::kCartesian);
+  const Printer &k = find_printer(p, "kossel");
+  CHECK(k.kinematics == Kinematics::kDelta);
+  CHECK(k.delta_rod_mm == 267);
+  CHECK(k.delta_printable_mm == 115);
   CHECK_THROWS_WITH(find_printer(p, "mk4"),
-                    "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, generic");
+                    "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, kossel, generic");
 }
 
 TEST_CASE("gcode: bad printer descriptions say where and what") {
@@ -105,7 +79,14 @@ TEST_CASE("gcode: bad printer descriptions say where and what") {
       {"a 80,80,80 0:9,0:9,0:9", "p.conf:1: expected 'name steps/mm volume max-feed description'"},
       {"a 80,80,80 0:9,0:9,0:9 1,1,1\na 80,80,80 0:9,0:9,0:9 1,1,1", "p.conf:2: a second printer named 'a'"},
       {"# nothing\n", "p.conf: no printers"},
-      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=delta", "p.conf:1: kinematics 'delta': expected cartesian or corexy"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=scara", "p.conf:1: kinematics 'scara': expected cartesian, corexy or delta"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=delta rod=200", "p.conf:1: printer a (delta): needs rod=, radius= and printable="},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=delta rod=200 radius=90 printable=100",
+       "p.conf:1: printer a (delta): printable radius 100.0 mm reaches the towers (radius 90.0 mm)"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 kinematics=delta rod=200 radius=120 printable=100",
+       "p.conf:1: printer a (delta): rods of 200.0 mm cannot reach the edge of the printable radius"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 colour=red", "p.conf:1: unknown key 'colour'"},
+      {"a 80,80,80 0:9,0:9,0:9 1,1,1 accel=900:500", "p.conf:1: accel 900:500: both above 0, the safe figure at least"},
   };
   for (const auto &[text, error] : cases) {
     INFO(text);
@@ -127,31 +108,6 @@ TEST_CASE("gcode: the sample songs on every preset: rates, times, volume, direct
     }
 }
 
-namespace {
-
-// A song of `voices` voices of 30 notes or rests each, MIDI 40-84, some with a lower note under
-// them (a chord: the higher note plays). Called by the generated-song tests.
-Song random_song(std::mt19937 &rng, int voices) {
-  std::vector<std::tuple<int, double, double, int>> rows;
-  for (int v = 0; v < voices; ++v) {
-    double t = 0;
-    for (int k = 0; k < 30; ++k) {
-      const double len = (1 + rng() % 8) / 16.0;
-      if (rng() % 4 == 0) {  // a rest
-        t += len;
-        continue;
-      }
-      const int note = 40 + static_cast<int>(rng() % 45);
-      rows.emplace_back(v, t, len, note);
-      if (rng() % 6 == 0) rows.emplace_back(v, t, len / 2, note - 3);
-      t += len;
-    }
-  }
-  return song_of(rows);
-}
-
-}  // namespace
-
 TEST_CASE("gcode: generated songs with rests, chords and three voices, on small and large volumes") {
   std::mt19937 rng(12345);
   for (int round = 0; round < 40; ++round) {
@@ -162,51 +118,6 @@ TEST_CASE("gcode: generated songs with rests, chords and three voices, on small 
     o.home = round % 5 == 0;
     round_trip(s, round % 4 == 0 ? box(3, 5, 2) : find_printer(builtin_printers(), "generic"), o);
   }
-}
-
-TEST_CASE("gcode: CoreXY: A and B sing their voices at their step rates, the head inside the volume") {
-  std::mt19937 rng(2024);
-  for (int round = 0; round < 40; ++round) {
-    INFO("round " << round);
-    const Song s = random_song(rng, 1 + round % 3);
-    Printer p = round % 4 == 0 ? box(3, 5, 2) : round % 4 == 1 ? box(40, 7, 10) : find_printer(builtin_printers(), "voron24");
-    p.kinematics = Kinematics::kCoreXY;
-    GcodeOptions o;
-    o.fold_octaves = true;
-    const auto d = round_trip(s, p, o);
-    const std::string text = write_gcode(plan_gcode(s, p, o), p, o, "t");
-    CHECK(text.find("; A plays track") != std::string::npos);
-    CHECK(text.find(", corexy\n") != std::string::npos);
-  }
-}
-
-TEST_CASE("gcode: CoreXY: at a side, the motor whose reversal leaves the head the longest way reverses") {
-  // A 100 x 10 mm bed, the head at the top side (y = 10) in the middle. A alone moves the head
-  // along (1, 1): up and out, so A reverses. With A and B at the same speed (pure X motion)
-  // the head is at no side it heads out of: nothing changes.
-  CoreXYHead h(50, 10, 0, 100, 0, 10, 1e-9);
-  h.set_speed(0, 2);
-  CHECK(h.vx() == 1);
-  CHECK(h.vy() == 1);
-  CHECK(h.heading_out());
-  REQUIRE(h.choose(3));
-  CHECK(h.vx() == -1);  // A reversed: down and left, 10 s to the bottom
-  CHECK(h.vy() == -1);
-  CHECK(h.time_to_side() == Approx(10));
-  h.set_speed(1, 2);  // B joins: (dA sA + dB sB) / 2 = (-2 + 2) / 2: the head moves along -y
-  CHECK(h.vx() == 0);
-  CHECK(h.vy() == -2);
-  // In a corner that the lone motor's line only touches, no way keeps the head in.
-  CoreXYHead c(100, 0, 0, 100, 0, 10, 1e-9);
-  c.set_speed(0, 2);
-  CHECK_FALSE(c.choose(1));
-  // The head lands on a side it reaches, not past it.
-  CoreXYHead e(99, 5, 0, 100, 0, 10, 1e-9);
-  e.set_speed(0, 2);
-  e.set_speed(1, 2);
-  e.advance(e.time_to_side());
-  CHECK(e.x() == 100);
-  CHECK(e.heading_out());
 }
 
 TEST_CASE("gcode: a two-track MIDI file with tempo changes") {
@@ -352,97 +263,6 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
         std::string::npos);
   o.steps_per_cycle = 0;
   CHECK(plan_error(s, box(100, 100, 100), o) == "steps per cycle must be above 0 and at most 64");
-}
-
-TEST_CASE("gcode: each firmware's header raises the motion limits to the preset's safe figures, its footer puts "
-          "the printer's own back") {
-  const Song s = song_of({{0, 0, 1, 60}});
-  const Printer &e = find_printer(builtin_printers(), "ender3");
-  struct Case {
-    Firmware f;
-    const char *set, *restore;
-  };
-  const Case cases[] = {
-      {Firmware::kMarlin, "M201 X2000 Y2000 ;", "M501 ;"},
-      {Firmware::kKlipper, "SET_VELOCITY_LIMIT ACCEL=2000 SQUARE_CORNER_VELOCITY=15.0 MINIMUM_CRUISE_RATIO=0.00 ;",
-       "SET_VELOCITY_LIMIT ACCEL=500 SQUARE_CORNER_VELOCITY=10.0 MINIMUM_CRUISE_RATIO=0.50 ;"},
-      {Firmware::kRepRap, "M566 X900 Y900 ;", "M566 X600 Y600 ;"},
-  };
-  for (const Case &c : cases) {
-    INFO(firmware_name(c.f));
-    GcodeOptions o;
-    o.flavor = c.f;
-    const std::string text = write_gcode(plan_gcode(s, e, o), e, o, "song");
-    const size_t song_at = text.find("; song starts"), end_at = text.find("; song ends");
-    CHECK(text.find(c.set) < song_at);
-    CHECK(text.find(c.restore) > end_at);
-    CHECK(text.find(std::string(", firmware ") + firmware_name(c.f)) != std::string::npos);
-    const ReadGcode d = read_gcode(text);
-    CHECK(d.restores_settings);
-    const MotionLimits l = with_settings(printer_limits(e, c.f, false), d.song_settings);
-    CHECK(l.accel_mm_s2 == 2000);  // the safe figure, read back as the firmware takes it
-    if (c.f == Firmware::kKlipper) CHECK(l.min_cruise_ratio == 0);
-    if (c.f == Firmware::kRepRap) CHECK(l.jerk_mm_s[0] == 15);
-    if (c.f == Firmware::kMarlin) CHECK(l.junction_deviation_mm == Approx(0.4 * 15 * 15 / 2000).margin(1e-4));
-    o.set_limits = false;
-    const ReadGcode kept = read_gcode(write_gcode(plan_gcode(s, e, o), e, o, "song"));
-    CHECK(kept.song_settings.accel_mm_s2 < 0);  // nothing set
-    CHECK_FALSE(kept.restores_settings);
-  }
-}
-
-TEST_CASE("gcode: on the motion model the sample songs play at least 95 % of their note time in tune on the "
-          "Ender-3 and Voron presets, more than with the printers' own limits") {
-  for (const char *name : {"ender3", "voron24"})
-    for (const char *file : {"9th.sng", "canon.sng", "furelise.sng"}) {
-      INFO(file << " on " << name);
-      const Printer &p = find_printer(builtin_printers(), name);
-      const Song s = read_song_file(std::string(STEPCHOIR_SONGS_DIR) + "/" + file);
-      GcodeOptions o;
-      o.fold_octaves = true;
-      o.flavor = p.motion.firmware;
-      const HeaderEffect e = header_effect(s, p, o);
-      const MotionReport &before = e.own, &after = e.header;
-      INFO("in tune: " << 100 * before.share() << " % before, " << 100 * after.share() << " % after");
-      CHECK(after.share() >= 0.95);
-      CHECK(after.share() > before.share());
-      CHECK(after.moves == before.moves);
-      CHECK(after.note_s >= after.written_s * 0.999);  // accelerating never makes a move quicker
-    }
-}
-
-TEST_CASE("gcode: the motion model: a lone move ramps up and down, a reversal stops, straight on keeps speed") {
-  // X: 10 mm at 10 mm/s, accel 1000 mm/s^2: 10 ms up and 10 ms down (0.05 mm each), 9.9 mm at
-  // cruise (0.99 s).
-  ReadGcode g;
-  GcodeMove m;
-  m.to[0] = 10;
-  m.feed_mm_min = 600;
-  m.duration_s = 1;
-  g.moves.push_back(m);
-  MotionLimits l;
-  l.accel_mm_s2 = 1000;
-  MotionReport r = model_motion(g, l);
-  CHECK(r.note_s == Approx(1.01));
-  CHECK(r.in_tune_s == Approx(0.99 + 2 * 10 * (1 - std::pow(2.0, -5 / 1200.0)) / 1000).epsilon(1e-6));
-  // Straight on at the same speed: no stop between the two halves.
-  GcodeMove back = m;
-  back.from[0] = 10;
-  back.to[0] = 20;
-  g.moves.push_back(back);
-  r = model_motion(g, l);
-  CHECK(r.note_s == Approx(2.01));
-  // A reversal stops: each move ramps both ways.
-  g.moves[1].to[0] = 0;
-  r = model_motion(g, l);
-  CHECK(r.note_s == Approx(2.02));
-  // Klipper's minimum cruise ratio caps a short move's top speed: 0.02 mm cannot reach 10 mm/s.
-  g.moves.resize(1);
-  g.moves[0].to[0] = 0.02;
-  l.firmware = Firmware::kKlipper;
-  l.min_cruise_ratio = 0.5;
-  r = model_motion(g, l);
-  CHECK(r.in_tune_s == 0);
 }
 
 TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to a denormal room hung)") {

@@ -51,9 +51,9 @@ std::string scratch_file(const std::string &name, const std::string &bytes) {
 
 }  // namespace
 
-TEST_CASE("stepchoir gcode: the sample songs on the Cartesian and CoreXY presets decode back to the score") {
+TEST_CASE("stepchoir gcode: the sample songs on the Cartesian, CoreXY and delta presets decode back to the score") {
   for (const char *file : {"9th.sng", "canon.sng", "furelise.sng"})
-    for (const char *printer : {"ender3", "prusa-mk3s", "voron24", "prusa-core-one"}) {
+    for (const char *printer : {"ender3", "prusa-mk3s", "voron24", "prusa-core-one", "kossel"}) {
       INFO(file << " on " << printer);
       const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/" + file;
       const std::string out = std::string(STEPCHOIR_SCRATCH) + "/" + file + "." + printer + ".gcode";
@@ -174,7 +174,7 @@ TEST_CASE("stepchoir gcode: bad songs and options exit 1 with what and where") {
   }
   const std::string good = std::string(STEPCHOIR_SONGS_DIR) + "/9th.sng";
   const std::pair<std::string, std::string> options[] = {
-      {" --printer mk4", "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, generic"},
+      {" --printer mk4", "no printer named 'mk4'; known: ender3, prusa-mk3s, voron24, prusa-core-one, kossel, generic"},
       {" --printer ender3 --volume 0:1,0:1,0:1", "give either --printer or --steps-per-mm and --volume, not both"},
       {" --steps-per-mm 80,80,400", "--steps-per-mm and --volume go together"},
       {" --steps-per-mm 80,80 --volume 0:9,0:9,0:9", "options: expected steps/mm as X,Y,Z"},

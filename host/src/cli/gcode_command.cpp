@@ -175,10 +175,12 @@ std::unique_ptr<GcodeCommand> add_gcode_command(CLI::App &app) {
       ->required();
   add_tab_options(g, c->tab);
   g.add_option("-o,--output", c->out, "G-code file to write ('-': standard output)")->required();
-  g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, voron24, prusa-core-one, generic (default "
-                                       "generic)");
-  g.add_option("--kinematics", c->kinematics, "cartesian or corexy (overrides the preset's; default cartesian)")
-      ->check(CLI::IsMember({"cartesian", "corexy"}));
+  g.add_option("--printer", c->printer, "Printer preset: ender3, prusa-mk3s, voron24, prusa-core-one, kossel, generic "
+                                       "(default generic)");
+  g.add_option("--kinematics", c->kinematics,
+               "cartesian, corexy or delta (overrides the preset's; default cartesian; delta needs a preset's rod, "
+               "radius and printable radius)")
+      ->check(CLI::IsMember({"cartesian", "corexy", "delta"}));
   g.add_option("--printer-file", c->printer_file, "Read the presets from this file (format of host/data/printers.conf)");
   g.add_option("--steps-per-mm", c->steps_per_mm, "Own printer: steps per mm as X,Y,Z or X,Y,Z,E (with --volume)");
   g.add_option("--volume", c->volume, "Own printer: travel as XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX in mm");

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "core/pitch.h"
 #include "song/corexy_head.h"
+#include "song/delta_head.h"
 
 namespace stepchoir {
 
@@ -174,10 +176,36 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
   double pos[kGcodeAxes], dir[kGcodeAxes] = {1, 1, 1, 1};
   for (size_t a = 0; a < kGcodeAxes; ++a) pos[a] = plan.start_mm[a] = (printer.axes[a].min_mm + printer.axes[a].max_mm) / 2;
   // CoreXY: motors A and B move the head together (CoreXYHead); Z and E bounce on their own.
+  // Delta: the three towers' carriages hold the effector (DeltaHead), which starts in the middle
+  // of the printable circle; E bounces on its own.
   const bool corexy = printer.kinematics == Kinematics::kCoreXY;
-  const size_t first_single = corexy ? 2 : 0;  // the first axis that bounces on its own
+  const bool delta = printer.kinematics == Kinematics::kDelta;
+  const size_t first_single = corexy ? 2 : delta ? 3 : 0;  // the first axis that bounces on its own
+  if (delta) {
+    check_delta(printer, "plan");
+    pos[0] = pos[1] = plan.start_mm[0] = plan.start_mm[1] = 0;
+  }
+  std::unique_ptr<DeltaHead> tower;
+  if (delta) {
+    DeltaGeometry g;
+    g.rod_mm = printer.delta_rod_mm;
+    g.radius_mm = printer.delta_radius_mm;
+    g.printable_mm = printer.delta_printable_mm;
+    g.z_min_mm = printer.axes[2].min_mm;
+    g.z_max_mm = printer.axes[2].max_mm;
+    tower = std::make_unique<DeltaHead>(
+        g, Vec3{pos[0], pos[1], pos[2]},
+        Vec3{printer.axes[0].steps_per_mm, printer.axes[1].steps_per_mm, printer.axes[2].steps_per_mm});
+  }
+  // How far ahead a new note's or a reversal's directions are judged on a delta, s.
+  constexpr double kDeltaHorizonS = 2.0;
   CoreXYHead head(pos[0], pos[1], printer.axes[0].min_mm, printer.axes[0].max_mm, printer.axes[1].min_mm,
                   printer.axes[1].max_mm, kAtBorderMm);
+  auto stuck = [&](double t) {
+    return GcodeError("the delta's effector is stuck at X" + gcode_number(pos[0], 3) + " Y" + gcode_number(pos[1], 3) +
+                      " Z" + gcode_number(pos[2], 3) + " at " + gcode_number(t, 3) +
+                      " s: no direction of the carriages keeps it inside");
+  };
   auto cornered = [&](double t) {
     return GcodeError("the CoreXY head is cornered at X" + gcode_number(head.x(), 3) + " Y" + gcode_number(head.y(), 3) +
                       " at " + gcode_number(t, 3) + " s: no direction of A and B keeps it inside");
@@ -201,7 +229,7 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       // on keeps its direction.
       if (l[c].onset && std::fabs(l[c].t0 - seg.start_s) <= kSameTimeS) {
         if (a < first_single)
-          head_onsets |= 1u << a;  // the head's way is chosen below, for A and B together
+          head_onsets |= 1u << a;  // the head's way is chosen below, for its motors together
         else
           dir[a] = ax.max_mm - pos[a] >= pos[a] - ax.min_mm ? 1 : -1;
       }
@@ -213,6 +241,11 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
       // New notes take the way that leaves the head the longest run to a side.
       if (head_onsets && !head.choose(head_onsets)) throw cornered(seg.start_s);
     }
+    if (delta) {
+      for (int t = 0; t < 3; ++t) tower->set_speed(t, speed_mm_s[t]);
+      if (head_onsets && !tower->choose(head_onsets, kDeltaHorizonS)) throw stuck(seg.start_s);
+    }
+    const unsigned towers_moving = delta ? (speed_mm_s[0] > 0) | (speed_mm_s[1] > 0) << 1 | (speed_mm_s[2] > 0) << 2 : 0;
     // Firmware measures a move's feed on X, Y and Z only (E follows); a move of E alone on E.
     // On CoreXY the head's X and Y speeds change when one of A and B reverses: per piece.
     auto feed_mm_s = [&] {
@@ -240,6 +273,15 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         if (head.heading_out() && !head.choose(3)) throw cornered(seg.start_s + seg.duration_s - left_s);
         dt = std::min(dt, head.time_to_side());
       }
+      if (delta && tower->moving()) {  // at the border: the carriages that keep it inside longest reverse
+        // (looking at most kDeltaHorizonS ahead: a long note takes several pieces)
+        double border_s = tower->time_to_border(std::min(left_s, kDeltaHorizonS));
+        if (border_s < 1e-9) {
+          if (!tower->choose(towers_moving, kDeltaHorizonS)) throw stuck(seg.start_s + seg.duration_s - left_s);
+          border_s = tower->time_to_border(std::min(left_s, kDeltaHorizonS));
+        }
+        dt = std::min(dt, border_s);
+      }
       for (size_t a = first_single; a < used; ++a) {
         if (speed_mm_s[a] == 0) continue;
         const PrinterAxis &ax = printer.axes[a];
@@ -252,6 +294,15 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         dt = std::min(dt, room / speed_mm_s[a]);
       }
       const double feed = feed_mm_s();  // the speeds of this piece, before any axis turns at its end
+      std::vector<DeltaMove> chords;  // a delta's effector: straight moves along its curve
+      const double e_before = pos[kExtruderAxis];
+      double chord_start[kCartesianAxes];
+      std::copy(pos, pos + kCartesianAxes, chord_start);
+      if (delta && tower->moving() && dt > 0) {
+        tower->advance(dt, chords, kMaxGcodeMoves - std::min(kMaxGcodeMoves, plan.steps.size()));
+        const Vec3 &e = tower->effector();
+        std::copy(e.begin(), e.end(), pos);
+      }
       if (corexy) {
         head.advance(dt);
         pos[0] = head.x();
@@ -269,6 +320,25 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         }
       }
       if (dt <= 0) continue;  // an axis only turned round
+      if (!chords.empty()) {  // E (if it sings) moves on evenly beside the effector
+        const double e_end = pos[kExtruderAxis];
+        double at_s = 0, from[kCartesianAxes];
+        std::copy(chord_start, chord_start + kCartesianAxes, from);
+        for (const DeltaMove &c : chords) {
+          at_s += c.duration_s;
+          GcodeStep m;
+          std::copy(c.to.begin(), c.to.end(), m.pos_mm);
+          m.pos_mm[kExtruderAxis] = e_before + (e_end - e_before) * std::min(1.0, at_s / dt);
+          double len2 = 0;
+          for (size_t a = 0; a < kCartesianAxes; ++a) len2 += (c.to[a] - from[a]) * (c.to[a] - from[a]);
+          std::copy(c.to.begin(), c.to.end(), from);
+          m.feed_mm_min = std::sqrt(len2) / c.duration_s * 60.0;
+          m.duration_s = c.duration_s;
+          plan.steps.push_back(m);
+        }
+        left_s = dt < left_s ? left_s - dt : 0;
+        continue;
+      }
       GcodeStep m;
       std::copy(pos, pos + kGcodeAxes, m.pos_mm);
       m.feed_mm_min = feed * 60.0;

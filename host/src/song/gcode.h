@@ -43,13 +43,16 @@ class GcodeError : public std::runtime_error {
 // - kCoreXY: motor A moves the head along X + Y and motor B along X - Y, both belts at once
 //   (Klipper's stepper_x and stepper_y; Marlin's COREXY; RepRapFirmware's M669 K1, whose motor
 //   positions are (X + Y) and (X - Y) times each motor's steps/mm). Z has its own motor.
-enum class Kinematics { kCartesian, kCoreXY };
+// - kDelta: three towers' carriages (A, B, C) hold the effector on rods (song/delta_head.h);
+//   each carriage sings, and the effector follows.
+enum class Kinematics { kCartesian, kCoreXY, kDelta };
 
-// "cartesian" or "corexy"; throws GcodeError naming where and the choices. Called by the
-// preset reader and the command's --kinematics.
+// "cartesian", "corexy" or "delta"; throws GcodeError naming where and the choices. Called by
+// the preset reader and the command's --kinematics.
 Kinematics parse_kinematics(std::string_view name, const std::string &where);
 const char *kinematics_name(Kinematics k);
-// The letter of the motor that plays axis index a's voice: X Y Z E, or A B Z E on CoreXY.
+// The letter of the motor that plays axis index a's voice: X Y Z E, A B Z E on CoreXY, A B C E
+// (the towers) on a delta.
 char motor_name(Kinematics k, size_t a);
 
 // The firmware a printer runs: its motion planner (song/motion_model.h) and the commands that
@@ -88,11 +91,17 @@ struct Printer {
   std::string description;
   Kinematics kinematics = Kinematics::kCartesian;
   PrinterMotion motion;
+  // Delta only (keys rod=, radius=, printable=): rod length, centre to a tower's carriage joint
+  // less the effector's offset (Marlin's DELTA_DIAGONAL_ROD and DELTA_RADIUS), and the radius the
+  // effector stays within, mm. Steps/mm and max feeds X, Y, Z are towers A, B, C's carriages';
+  // the volume's Z range is the effector's.
+  double delta_rod_mm = 0, delta_radius_mm = 0, delta_printable_mm = 0;
   PrinterAxis axes[kGcodeAxes];  // E: steps_per_mm 0 when unknown; range +-kExtruderTravelMm
 };
 
 // Parses presets in the format of host/data/printers.conf (after the max feeds, optional
-// key=value words: kinematics, firmware, accel, corner, zaccel); source names the text in errors
+// key=value words: kinematics, firmware, accel, corner, zaccel, rod, radius, printable); source
+// names the text in errors
 // (source:line). Called by builtin_printers and the `stepchoir gcode` command. Throws GcodeError.
 std::vector<Printer> parse_printers(std::string_view text, const std::string &source);
 
@@ -102,6 +111,11 @@ std::vector<Printer> parse_printers(std::string_view text, const std::string &so
 // parse_printers and the command's --steps-per-mm/--volume. Throws GcodeError.
 Printer make_printer(const std::string &name, std::string_view steps, std::string_view volume,
                      std::string_view max_feed, const std::string &where);
+
+// Throws GcodeError (naming where and the printer) unless a delta printer's rods, radius and
+// printable radius make a machine whose effector reaches every point of its printable circle.
+// Called by the preset reader and plan_gcode.
+void check_delta(const Printer &printer, const std::string &where);
 
 // The presets built into the command (host/data/printers.conf). Called by the command and tests.
 const std::vector<Printer> &builtin_printers();

@@ -71,8 +71,13 @@ void read_key(std::string_view word, const std::string &where, Printer &p) {
   } else if (key == "zaccel") {
     p.motion.z_accel = number(value, where, "zaccel");
     if (!(p.motion.z_accel > 0)) throw GcodeError(where + ": zaccel must be above 0");
+  } else if (key == "rod" || key == "radius" || key == "printable") {
+    const double v = number(value, where, std::string(key).c_str());
+    if (!(v > 0)) throw GcodeError(where + ": " + std::string(key) + " must be above 0");
+    (key == "rod" ? p.delta_rod_mm : key == "radius" ? p.delta_radius_mm : p.delta_printable_mm) = v;
   } else {
-    throw GcodeError(where + ": unknown key '" + std::string(key) + "' (kinematics, firmware, accel, corner, zaccel)");
+    throw GcodeError(where + ": unknown key '" + std::string(key) +
+                     "' (kinematics, firmware, accel, corner, zaccel, rod, radius, printable)");
   }
 }
 
@@ -132,6 +137,7 @@ std::vector<Printer> parse_printers(std::string_view text, const std::string &so
     for (size_t i = first; i < w.size(); ++i) p.description += (i > first ? " " : "") + std::string(w[i]);
     for (const auto &q : out)
       if (q.name == p.name) throw GcodeError(where + ": a second printer named '" + p.name + "'");
+    if (p.kinematics == Kinematics::kDelta) check_delta(p, where);
     out.push_back(std::move(p));
   }
   if (out.empty()) throw GcodeError(source + ": no printers");
@@ -141,7 +147,8 @@ std::vector<Printer> parse_printers(std::string_view text, const std::string &so
 Kinematics parse_kinematics(std::string_view name, const std::string &where) {
   if (name == "cartesian") return Kinematics::kCartesian;
   if (name == "corexy") return Kinematics::kCoreXY;
-  throw GcodeError(where + ": kinematics '" + std::string(name) + "': expected cartesian or corexy");
+  if (name == "delta") return Kinematics::kDelta;
+  throw GcodeError(where + ": kinematics '" + std::string(name) + "': expected cartesian, corexy or delta");
 }
 
 Firmware parse_firmware(std::string_view name, const std::string &where) {
@@ -155,11 +162,28 @@ const char *firmware_name(Firmware f) {
   return f == Firmware::kKlipper ? "klipper" : f == Firmware::kRepRap ? "reprap" : "marlin";
 }
 
-const char *kinematics_name(Kinematics k) { return k == Kinematics::kCoreXY ? "corexy" : "cartesian"; }
+const char *kinematics_name(Kinematics k) {
+  return k == Kinematics::kCoreXY ? "corexy" : k == Kinematics::kDelta ? "delta" : "cartesian";
+}
 
 char motor_name(Kinematics k, size_t a) {
   if (k == Kinematics::kCoreXY && a < 2) return a == 0 ? 'A' : 'B';
+  if (k == Kinematics::kDelta && a < 3) return static_cast<char>('A' + a);
   return kAxisNames[a];
+}
+
+void check_delta(const Printer &p, const std::string &where) {
+  const std::string who = where + ": printer " + p.name + " (delta): ";
+  if (!(p.delta_rod_mm > 0) || !(p.delta_radius_mm > 0) || !(p.delta_printable_mm > 0))
+    throw GcodeError(who + "needs rod=, radius= and printable= (mm)");
+  if (!(p.delta_printable_mm < p.delta_radius_mm))
+    throw GcodeError(who + "printable radius " + gcode_number(p.delta_printable_mm, 1) + " mm reaches the towers (radius " +
+                     gcode_number(p.delta_radius_mm, 1) + " mm)");
+  if (!(p.delta_radius_mm + p.delta_printable_mm < p.delta_rod_mm))
+    throw GcodeError(who + "rods of " + gcode_number(p.delta_rod_mm, 1) + " mm cannot reach the edge of the printable " +
+                     "radius from the far tower (radius + printable = " +
+                     gcode_number(p.delta_radius_mm + p.delta_printable_mm, 1) + " mm): the delta radius is too small " +
+                     "for its rods, or the printable radius too large");
 }
 
 const std::vector<Printer> &builtin_printers() {
