@@ -14,6 +14,7 @@
 
 #include "gcode_check.h"
 #include "smf_builder.h"
+#include "player/printer_arrangement.h"
 #include "song/gcode.h"
 #include "song/song.h"
 
@@ -140,6 +141,27 @@ TEST_CASE("stepchoir gcode: --kinematics corexy on an own printer: A and B sing 
   CHECK_FALSE(gcheck::problems(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, o).axis_voice,
                                kDefaultStepsPerCycle, true).empty());
   CHECK(run_gcode(song + " -o " + out + " --printer ender3 --kinematics delta", err) != 0);
+}
+
+TEST_CASE("stepchoir gcode: a tab and a MusicXML score become G-code as play reads them") {
+  for (const char *file : {"riff.tab", "duet.mxl"}) {
+    INFO(file);
+    const std::string song = std::string(STEPCHOIR_SONGS_DIR) + "/" + file;
+    const std::string out = std::string(STEPCHOIR_SCRATCH) + "/" + file + ".gcode";
+    std::string err;
+    REQUIRE(run_gcode(song + " -o " + out + " --printer prusa-mk3s --fold-octaves", err) == 0);
+    INFO(err);
+    const Song read = read_song_file(song);
+    REQUIRE(read.notes.size() > 10);
+    const Printer &p = find_printer(builtin_printers(), "prusa-mk3s");
+    // the tab's six strings are six voices: arranged for the three axes, as the command says
+    std::vector<std::string> said;
+    const Song s = voices_of(read).size() > 3 ? arrange_for_printer(read, p, 3, kDefaultStepsPerCycle, said) : read;
+    CHECK((said.empty() || err.find(said[0]) != std::string::npos));
+    GcodeOptions o;
+    o.fold_octaves = true;
+    gcheck::check(gcheck::decode(slurp(out)), s, p, plan_gcode(s, p, o).axis_voice, kDefaultStepsPerCycle, true);
+  }
 }
 
 TEST_CASE("stepchoir gcode: --printer-file reads presets from a file, and names the line of a bad one") {

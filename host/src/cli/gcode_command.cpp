@@ -2,13 +2,11 @@
 #include "cli/gcode_command.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
-#include "core/pitch.h"
-#include "player/plan.h"
+#include "player/printer_arrangement.h"
 #include "song/gcode.h"
 #include "song/song.h"
 
@@ -69,55 +67,6 @@ std::vector<size_t> voices_option(const std::string &text) {
   return out;
 }
 
-// The highest note a motor at steps_per_mm with max_feed_mm_s (0: unchecked) sings at spc
-// steps a cycle. Called by arranged.
-uint8_t highest_note(const PrinterAxis &ax, double spc) {
-  int note = 127;
-  if (ax.max_feed_mm_s > 0)
-    while (note > 0 && note_hz(note) * spc / ax.steps_per_mm > ax.max_feed_mm_s) --note;
-  return static_cast<uint8_t>(note);
-}
-
-// A song with more voices than the printer has axes, as the arranger plays it on `axes`
-// motors (melody first, then bass; out-of-range notes folded by octaves): one voice a motor
-// (track = motor). Adds what it did to `warnings`. Called by GcodeCommand::run.
-Song arranged(const Song &song, const Printer &printer, size_t axes, double spc, size_t voices,
-              std::vector<std::string> &warnings) {
-  PlanOptions o;
-  for (size_t a = 0; a < axes; ++a) {
-    MotorConfig mc;
-    mc.lowest_note = 0;
-    mc.highest_note = highest_note(printer.axes[a], spc);
-    o.motors.push_back(mc);
-  }
-  o.min_note_s = 0;
-  const Plan plan = plan_song(song, o);
-  Song out;
-  out.duration_s = song.duration_s;
-  out.track_count = static_cast<uint16_t>(axes);
-  size_t roles[kRoleCount] = {};
-  for (const PlannedNote &n : plan.notes) {
-    SongNote s = song.notes[n.song_index];
-    s.onset_s = n.on_s;
-    s.duration_s = n.off_s - n.on_s;
-    s.midi_note = static_cast<uint8_t>(std::lround(n.pitch));
-    s.track = n.motor;
-    s.channel = 0;
-    if (s.duration_s > 0) out.notes.push_back(s);
-    ++roles[static_cast<size_t>(n.role)];
-  }
-  std::sort(out.notes.begin(), out.notes.end(), [](const SongNote &a, const SongNote &b) {
-    return a.onset_s != b.onset_s ? a.onset_s < b.onset_s : a.track < b.track;
-  });
-  std::string kept;
-  for (size_t r = 0; r < kRoleCount; ++r)
-    if (roles[r]) kept += (kept.empty() ? "" : ", ") + std::to_string(roles[r]) + " " + role_name(static_cast<Role>(r));
-  warnings.push_back("the song has " + std::to_string(voices) + " voices and the printer " + std::to_string(axes) +
-                     " axes: arranged, melody first, then bass; " + std::to_string(plan.notes.size()) + " of " +
-                     std::to_string(plan.selected) + " notes play (" + kept + "); --channels picks voices instead");
-  return out;
-}
-
 }  // namespace
 
 int GcodeCommand::run() const {
@@ -141,7 +90,7 @@ int GcodeCommand::run() const {
     o.flavor = flavor.empty() ? p.motion.firmware : parse_firmware(flavor, "--flavor");
     o.set_limits = !keep_limits;
     const size_t axes = extruder ? kGcodeAxes : kCartesianAxes, voices = voices_of(s).size();
-    if (o.voice_of_axis.empty() && voices > axes) s = arranged(s, p, axes, steps_per_cycle, voices, notices);
+    if (o.voice_of_axis.empty() && voices > axes) s = arrange_for_printer(s, p, axes, steps_per_cycle, notices);
     GcodePlan plan = plan_gcode(s, p, o);
     plan.warnings.insert(plan.warnings.begin(), notices.begin(), notices.end());
     for (const auto &w : plan.warnings) std::fprintf(stderr, "stepchoir gcode: warning: %s\n", w.c_str());
