@@ -265,8 +265,9 @@ TEST_CASE("gcode: header and footer: units, absolute positions, optional homing,
   CHECK(plan_error(s, box(100, 100, 100), o) == "steps per cycle must be above 0 and at most 64");
 }
 
-TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to a denormal room hung)") {
-  for (const char *name : {"border-denormal-hang.sng", "border-denormal-hang.mid"}) {
+TEST_CASE("gcode: inputs the fuzzers found plan and end (a carriage rounding to a denormal room hung, a delta "
+          "effector a micrometre outside)") {
+  for (const char *name : {"border-denormal-hang.sng", "border-denormal-hang.mid", "delta-outside-by-tolerance.sng"}) {
     INFO(name);
     const Song s = read_song_file(std::string(STEPCHOIR_FUZZ_REGRESSIONS) + "/" + name);
     fuzz_plan(s);  // aborts on a coordinate outside the volume; ctest's timeout catches a hang

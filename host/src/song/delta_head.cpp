@@ -12,8 +12,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 // Tower angles (degrees): A front left, B front right, C at the back.
 constexpr double kTowerDeg[3] = {210, 330, 90};
-// The effector this close to a border is at it, mm; time steps of the border search, s.
-constexpr double kInsideMm = 1e-6;
+// Time steps of the border search, s.
 constexpr double kProbeS = 0.001;
 // A straight move lasts at least this long (s); the recursion that splits moves stops there.
 constexpr double kShortestMoveS = 0.0002;
@@ -78,8 +77,7 @@ DeltaHead::DeltaHead(const DeltaGeometry &g, const Vec3 &start, const Vec3 &step
 }
 
 bool DeltaHead::inside(const Vec3 &p) const {
-  const double r = g_.printable_mm + kInsideMm;
-  return p[0] * p[0] + p[1] * p[1] <= r * r && p[2] >= g_.z_min_mm - kInsideMm && p[2] <= g_.z_max_mm + kInsideMm;
+  return p[0] * p[0] + p[1] * p[1] <= g_.printable_mm * g_.printable_mm && p[2] >= g_.z_min_mm && p[2] <= g_.z_max_mm;
 }
 
 bool DeltaHead::effector_after(double dt, Vec3 *p) const {

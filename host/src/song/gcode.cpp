@@ -277,8 +277,9 @@ GcodePlan plan_gcode(const Song &song, const Printer &printer, const GcodeOption
         // (looking at most kDeltaHorizonS ahead: a long note takes several pieces)
         double border_s = tower->time_to_border(std::min(left_s, kDeltaHorizonS));
         if (border_s < 1e-9) {
-          if (!tower->choose(towers_moving, kDeltaHorizonS)) throw stuck(seg.start_s + seg.duration_s - left_s);
+          tower->choose(towers_moving, kDeltaHorizonS);
           border_s = tower->time_to_border(std::min(left_s, kDeltaHorizonS));
+          if (border_s < 1e-9) throw stuck(seg.start_s + seg.duration_s - left_s);
         }
         dt = std::min(dt, border_s);
       }
