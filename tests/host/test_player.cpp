@@ -7,6 +7,7 @@
 #include <random>
 
 #include "player/clock_sync.h"
+#include "player/start_gate.h"
 
 using namespace stepchoir;
 
@@ -202,4 +203,19 @@ TEST_CASE("clock: a board that falls 10 ms behind for a moment and catches up mo
     CHECK(cents(worst_ppm) < 0.5);
     CHECK(worst_time_us < 3000);  // the bridge's own one-sided delays: a constant part
   }
+}
+
+TEST_CASE("players: several boards take one start once every one is synced; one that gave up holds none back",
+          "[player]") {
+  StartGate gate(3);
+  CHECK(gate.ready(0, 1000) == 0);
+  CHECK(gate.ready(2, 1500) == 0);
+  CHECK(gate.ready(0, 1800) == 0);  // asking again keeps its first time
+  CHECK(gate.ready(1, 2000) == 2000);
+  CHECK(gate.ready(0, 2001) == 2000);  // the same start for every player
+  CHECK(gate.ready(2, 2002) == 2000);
+  StartGate lost(2);
+  CHECK(lost.ready(0, 500) == 0);
+  lost.leave(1);  // its board never answered
+  CHECK(lost.ready(0, 600) == 500);
 }

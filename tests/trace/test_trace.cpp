@@ -107,6 +107,19 @@ TEST_CASE("time conversions use f_cpu and clock_ppm", "[trace]") {
   CHECK(t.real_f_cpu_hz() == Approx(16000000.0 * (1.0 - 25e-6)));
 }
 
+TEST_CASE("the wall_start line lays the board's cycles on the machine's monotonic clock", "[trace]") {
+  Trace t = parse_trace(std::string(kHeader) + kColumns + "# wall_start cycle=1600000 monotonic_ns=5000000000\n");
+  REQUIRE(t.has_wall_start);
+  CHECK(t.wall_start_cycle == 1600000u);
+  CHECK(t.wall_start_ns == 5000000000u);
+  // cycle 1,600,000 is at 5 s; a real second later, 6 s
+  CHECK(t.wall_seconds(t.real_seconds(1600000)) == Approx(5.0).epsilon(1e-12));
+  CHECK(t.wall_seconds(t.real_seconds(1600000) + 1) == Approx(6.0).epsilon(1e-12));
+  CHECK_FALSE(parse_trace(std::string(kHeader) + kColumns).has_wall_start);
+  CHECK_THROWS_WITH(parse_trace(std::string(kHeader) + kColumns + "# wall_start cycle=1\n"),
+                    Catch::Contains("lacks cycle= or monotonic_ns="));
+}
+
 TEST_CASE("without an end line the end is the last falling edge - CRLF and blank lines are fine", "[trace]") {
   std::string text = "# stepchoir-vboard trace v1 f_cpu=8000000 motors=1\r\n\r\n"
                      "event,motor,cycle,value,position,width\r\n"

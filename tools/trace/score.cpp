@@ -35,22 +35,32 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
   // starts (within 5 ms) is the rough one; their onsets near it fix the line (with one only,
   // the tempo is taken as exact).
   std::vector<size_t> fresh;
+  std::vector<bool> is_fresh(notes.size(), false);
   for (size_t k = 0; k < notes.size(); ++k) {
     bool silent_before = true;
     for (size_t q = 0; q < k; ++q)
       if (notes[q].motor == notes[k].motor && notes[q].off_s > notes[k].on_s - 0.008)
         silent_before = false;
     if (notes[k].after_silence >= 0) silent_before = notes[k].after_silence == 1;
-    if (silent_before) fresh.push_back(k);
+    if (silent_before) fresh.push_back(k), is_fresh[k] = true;
   }
-  auto starts = [&](size_t motor) {  // the motor's steps that follow a gap
-    std::vector<double> out;
+  std::vector<std::vector<size_t>> start_cache(t.motor.size());
+  std::vector<bool> cached(t.motor.size(), false);
+  auto start_steps = [&](size_t motor) -> const std::vector<size_t> & {  // steps that follow a gap (indices)
+    if (cached.at(motor)) return start_cache[motor];
+    std::vector<size_t> &out = start_cache[motor];
     const auto &s = t.motor.at(motor).steps;
     for (size_t i = 0; i < s.size(); ++i) {
       const double gap = i == 0 ? 1e9 : sec(s[i].rise_cycle) - sec(s[i - 1].rise_cycle);
       const double before = i < 2 ? 0 : sec(s[i - 1].rise_cycle) - sec(s[i - 2].rise_cycle);
-      if (gap > 0.008 && gap > 1.5 * before) out.push_back(sec(s[i].rise_cycle));
+      if (gap > 0.008 && gap > 1.5 * before) out.push_back(i);
     }
+    cached[motor] = true;
+    return out;
+  };
+  auto starts = [&](size_t motor) {  // their times
+    std::vector<double> out;
+    for (size_t i : start_steps(motor)) out.push_back(sec(t.motor.at(motor).steps[i].rise_cycle));
     return out;
   };
   auto start_near = [&](size_t k, double offset, double tolerance, double *at) {
@@ -96,9 +106,25 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
   }
   double a = ys[0] - xs[0], b = 1;
   if (xs.size() >= 2) fit_line(xs, ys, &a, &b);
-  // Every note's onset edge on that line, then the line again through all of them.
+  // Every note's onset edge on that line, then the line again through all of them. A note on a
+  // silent motor begins with the step after the gap nearest the line (within 5 ms), however far
+  // the line is off; a note that follows another with its first step after the line's time.
   auto onset_edge = [&](const ScoreNote &n) -> long {
     const auto &s = t.motor.at(n.motor).steps;
+    const size_t k = static_cast<size_t>(&n - notes.data());
+    if (is_fresh[k]) {
+      const std::vector<size_t> &st = start_steps(n.motor);
+      const double want = a + b * n.on_s;
+      auto it = std::lower_bound(st.begin(), st.end(), want - 0.005,
+                                 [&](size_t i, double v) { return sec(s[i].rise_cycle) < v; });
+      long best_i = -1;
+      double best_off = 0.005;
+      for (; it != st.end() && sec(s[*it].rise_cycle) < want + 0.005; ++it) {
+        const double off = std::fabs(sec(s[*it].rise_cycle) - want);
+        if (off < best_off) best_off = off, best_i = static_cast<long>(*it);
+      }
+      if (best_i >= 0) return best_i;
+    }
     const double want = a + b * n.on_s - 0.00005;
     const auto it = std::lower_bound(s.begin(), s.end(), want, [&](const Step &st, double v) {
       return sec(st.rise_cycle) < v;

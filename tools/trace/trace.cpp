@@ -171,6 +171,18 @@ void Parser::parse_comment(std::string_view line) {
     trace_.has_end = true;
     return;
   }
+  constexpr std::string_view kWallPrefix = "# wall_start ";
+  if (line.substr(0, kWallPrefix.size()) == kWallPrefix) {
+    const std::string_view rest = line.substr(kWallPrefix.size());
+    const size_t cycle_at = rest.find("cycle="), ns_at = rest.find("monotonic_ns=");
+    if (cycle_at == std::string_view::npos || ns_at == std::string_view::npos)
+      fail("'# wall_start' line lacks cycle= or monotonic_ns=");
+    std::string_view cycle = rest.substr(cycle_at + 6), ns = rest.substr(ns_at + 13);
+    trace_.wall_start_cycle = parse_unsigned<uint64_t>(cycle.substr(0, cycle.find(' ')), "wall_start cycle");
+    trace_.wall_start_ns = parse_unsigned<uint64_t>(ns.substr(0, ns.find(' ')), "wall_start monotonic_ns");
+    trace_.has_wall_start = true;
+    return;
+  }
   if (line.substr(0, kSummaryPrefix.size()) == kSummaryPrefix &&
       (line.size() == kSummaryPrefix.size() || line[kSummaryPrefix.size()] == ' ')) {
     trace_.summary_lines.emplace_back(line.substr(2));  // drop "# "

@@ -66,6 +66,10 @@ struct Trace {
   double clock_ppm = 0;          // clock_ppm=... (0 if absent)
   int motors = 0;                // motors=... (required)
   int64_t travel_steps = 0;      // travel_steps=... (0 if absent = unknown)
+  // "# wall_start cycle=C monotonic_ns=N": the machine's CLOCK_MONOTONIC read N when the board
+  // was at cycle C and began to keep real time (absent: has_wall_start false).
+  bool has_wall_start = false;
+  uint64_t wall_start_cycle = 0, wall_start_ns = 0;
   uint64_t end_cycle = 0;        // from "# end cycle=N", else the last cycle seen
   bool has_end = false;          // true when the "# end" line was present
   std::vector<MotorTrace> motor;          // motors entries
@@ -84,6 +88,12 @@ struct Trace {
   double real_f_cpu_hz() const { return f_cpu_hz * (1.0 + clock_ppm / kPpmPerUnit); }
   // Real (wall) time of a cycle: cycle / (f_cpu * (1 + clock_ppm / 1e6)).
   double real_seconds(uint64_t cycle) const { return double(cycle) / real_f_cpu_hz(); }
+  // The machine's monotonic clock (s) at a real_seconds() time of this board, for laying several
+  // boards' traces on one time line (needs has_wall_start; true only while the board kept real
+  // time: pacing_slipped_us() == 0).
+  double wall_seconds(double real_s) const {
+    return wall_start_ns / 1e9 + real_s - real_seconds(wall_start_cycle);
+  }
 };
 
 // Reads a trace file. Throws std::runtime_error("PATH:LINE: message") on malformed input

@@ -2,21 +2,21 @@
 // (a real one, or the virtual board started here), with a progress line and a report.
 #include "cli/play_command.h"
 
-#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 #include "board/board.h"
 #include "board/child_process.h"
 #include "board/link.h"
 #include "board/vboard_child.h"
+#include "cli/play_report.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "core/pitch.h"
@@ -24,6 +24,7 @@
 #include "live/session.h"
 #include "player/plan.h"
 #include "player/player.h"
+#include "player/start_gate.h"
 #include "song/song.h"
 
 
@@ -38,45 +39,6 @@ std::atomic<bool> g_pause{false};
 // host stalled for up to half a second still keeps ahead of it.
 constexpr double kRenderSpeed = 2.0;
 constexpr double kRenderLeadS = 1.0;
-
-// "1:05" for 65 s. Called from: the progress line.
-std::string clock_text(double s) {
-  const int total = static_cast<int>(std::max(0.0, s));
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%d:%02d", total / 60, total % 60);
-  return buf;
-}
-
-// Keys on a terminal: space or p pauses and resumes, q stops. Raw mode while it lives.
-class Keys {
- public:
-  // Called from: PlayCommand::run. Does nothing when stdin is no terminal.
-  Keys() {
-    if (!::isatty(0) || tcgetattr(0, &saved_) != 0) return;
-    termios raw = saved_;
-    raw.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));
-    raw.c_cc[VMIN] = 0;
-    raw.c_cc[VTIME] = 0;
-    active_ = tcsetattr(0, TCSANOW, &raw) == 0;
-  }
-  ~Keys() {
-    if (active_) tcsetattr(0, TCSANOW, &saved_);
-  }
-  // Called from: the progress callback. Applies the keys pressed since; true on q.
-  bool poll() {
-    if (!active_) return false;
-    char c;
-    while (::read(0, &c, 1) == 1) {
-      if (c == ' ' || c == 'p') toggle_play_pause();
-      if (c == 'q') return true;
-    }
-    return false;
-  }
-
- private:
-  termios saved_{};
-  bool active_ = false;
-};
 
 // The plan options from the command line, for the board motors ids (in the plan's order) whose
 // musical settings (the rig file's) are `music`. Called from: PlayCommand::run. Throws
@@ -119,72 +81,6 @@ PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &i
     p.voices.push_back(line);
   }
   return p;
-}
-
-// The dry run's summary: per track and channel, notes kept (and of them folded, and as which
-// role), and notes left out by reason. Called from: PlayCommand::run.
-void report_arrangement(const Song &song, const Plan &plan) {
-  struct Counts {
-    size_t notes = 0, kept = 0, folded = 0;
-    size_t roles[kRoleCount] = {};
-    size_t why[kUnplayedCount] = {};
-  };
-  std::map<std::pair<int, int>, Counts> by_line;
-  for (const PlannedNote &n : plan.notes) {
-    const SongNote &s = song.notes[n.song_index];
-    Counts &c = by_line[{s.track, s.channel}];
-    ++c.notes, ++c.kept;
-    c.folded += n.octaves != 0;
-    ++c.roles[static_cast<size_t>(n.role)];
-  }
-  for (const UnplayedNote &u : plan.unplayed) {
-    const SongNote &s = song.notes[u.song_index];
-    Counts &c = by_line[{s.track, s.channel}];
-    ++c.notes;
-    ++c.why[static_cast<size_t>(u.why)];
-  }
-  std::printf("arrangement, by track and channel:\n");
-  for (const auto &[line, c] : by_line) {
-    const std::string &name = static_cast<size_t>(line.first) < song.track_names.size() ? song.track_names[line.first] : "";
-    std::printf("  track %d%s%s%s channel %d: %zu notes, kept %zu", line.first, name.empty() ? "" : " \"",
-                name.c_str(), name.empty() ? "" : "\"", line.second + 1, c.notes, c.kept);
-    std::string roles;
-    for (size_t r = 0; r < kRoleCount; ++r)
-      if (c.roles[r]) roles += (roles.empty() ? "" : ", ") + std::to_string(c.roles[r]) + " " + role_name(static_cast<Role>(r));
-    if (!roles.empty()) std::printf(" (%s)", roles.c_str());
-    if (c.folded) std::printf(", folded %zu", c.folded);
-    if (c.notes > c.kept) {
-      std::printf(", dropped %zu:", c.notes - c.kept);
-      const char *sep = " ";
-      for (size_t w = 0; w < kUnplayedCount; ++w)
-        if (c.why[w]) std::printf("%s%zu %s", sep, c.why[w], unplayed_reason(static_cast<Unplayed>(w))), sep = "; ";
-    }
-    std::printf("\n");
-  }
-}
-
-// Prints what the plan leaves out. Called from: PlayCommand::run.
-void report_plan(const std::string &cmd, const Song &song, const Plan &plan, size_t motors) {
-  size_t why[kUnplayedCount] = {};
-  for (const UnplayedNote &u : plan.unplayed) ++why[static_cast<size_t>(u.why)];
-  std::printf("%s: %zu notes (%s), %zu played on %zu motors", cmd.c_str(), plan.selected,
-              clock_text(plan.duration_s).c_str(), plan.notes.size(), motors);
-  if (!plan.unplayed.empty()) {
-    std::printf("; not played: %zu (", plan.unplayed.size());
-    const char *sep = "";
-    for (size_t w = 0; w < kUnplayedCount; ++w)
-      if (why[w]) std::printf("%s%s %zu", sep, unplayed_reason(static_cast<Unplayed>(w)), why[w]), sep = ", ";
-    std::printf(")");
-  }
-  if (plan.shortened) std::printf("; %zu cut short for another", plan.shortened);
-  std::printf("\n");
-  for (size_t i = 0; i < plan.unplayed.size() && i < 5; ++i) {
-    const SongNote &n = song.notes[plan.unplayed[i].song_index];
-    std::printf("  not played: note %u at %.3f s (track %u, channel %u): %s\n", n.midi_note, n.onset_s, n.track,
-                n.channel + 1, unplayed_reason(plan.unplayed[i].why));
-  }
-  if (plan.unplayed.size() > 5) std::printf("  ... and %zu more\n", plan.unplayed.size() - 5);
-  std::fflush(stdout);
 }
 
 // Runs `prog` beside this program with args, waits; its exit status (or -1).
@@ -265,7 +161,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   };
   c->play = app.add_subcommand("play", "Play a song file on the motors (space pauses, q or Ctrl-C stops)");
   selection(c->play);
-  c->play->add_option("--port,-p", c->port, "Board (none: the configuration's first board, else the virtual board, in real time)");
+  c->play->add_option("--port,-p", c->ports, "Board (repeat for several: their motors form one pool; none: the "
+                                            "configuration's boards, else the virtual board, in real time)");
   c->play->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->play->add_option("--clock-ppm", c->clock_ppm, "Without --port: the virtual board's crystal error")
       ->check(CLI::Range(-20000.0, 20000.0));
@@ -286,7 +183,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
       ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
   c->jam->add_option("--song-motors", c->song_motors, "The board's motors that play the song (the keyboard plays the rest)")
       ->delimiter(',')->default_str("0,1");
-  c->jam->add_option("--port,-p", c->port, "Board (none: the configuration's first board, else the virtual board, in real time)");
+  c->jam->add_option("--port,-p", c->ports, "Board (none: the configuration's first board, else the virtual board, in "
+                                           "real time)");
   c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
       ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
@@ -312,7 +210,8 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     if (dry_run_motors > 0) {
       std::vector<uint8_t> ids(static_cast<size_t>(dry_run_motors));
       for (size_t m = 0; m < ids.size(); ++m) ids[m] = static_cast<uint8_t>(m);
-      const Plan plan = plan_song(song, plan_options(sel, ids, motor_music(board_settings(rig, port, 0), 16000000, ids)));
+      const std::string first = ports.empty() ? "" : ports[0];
+      const Plan plan = plan_song(song, plan_options(sel, ids, motor_music(board_settings(rig, first, 0), 16000000, ids)));
       report_plan(cmd, song, plan, ids.size());
       report_arrangement(song, plan);
       for (const PlanEvent &e : plan_events(plan)) {
@@ -323,11 +222,18 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
       return 0;
     }
+    // The boards: --port (repeat it: their motors form one pool), else the rig file's, else the
+    // virtual board started here (render: always).
+    std::vector<std::string> paths = rendering ? std::vector<std::string>{} : ports;
+    if (paths.empty() && !rendering)
+      for (const BoardSettings &b : rig.config.boards)
+        if (!b.port.empty()) paths.push_back(b.port);
+    if (jamming && paths.size() > 1) throw std::runtime_error("jam plays on one board (give --port once)");
     std::unique_ptr<VirtualBoard> vb;
-    std::string link_path = rendering ? "" : rig_port(rig, port), trace = rendering ? keep_trace : vboard_trace;
+    std::string trace = rendering ? keep_trace : vboard_trace;
     if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
-    if (link_path.empty()) {
-      link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + ".pty";
+    if (paths.empty()) {
+      const std::string link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + ".pty";
       // No per-instruction interrupt accounting: a faster simulation keeps real time on a busy
       // machine and renders sooner.
       std::vector<std::string> extra{"--no-measure"};
@@ -339,38 +245,71 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
       if (!rendering)
         std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboard.c_str(), link_path.c_str());
+      paths.push_back(link_path);
     }
-    auto board = std::make_unique<Board>(open_link(link_path));
-    const Caps caps = vb ? board->hello() : board->greet();  // its own board does not reset
-    // The rig's first board's settings also fit the virtual board that stands in for it.
-    const BoardSettings *settings = board_settings(rig, link_path, 0);
-    if (settings) configure_motors(*board, caps, *settings, link_path);
+    // Each board greeted and configured from the rig file (its virtual stand-in too).
+    struct BoardRun {
+      std::string path;
+      std::unique_ptr<Board> board;
+      Caps caps;
+      const BoardSettings *settings = nullptr;
+      std::vector<uint8_t> song_ids;  // its motors that play the song
+    };
+    std::vector<BoardRun> boards;
+    for (size_t b = 0; b < paths.size(); ++b) {
+      BoardRun r;
+      r.path = paths[b];
+      r.board = std::make_unique<Board>(open_link(r.path));
+      r.caps = vb ? r.board->hello() : r.board->greet();  // its own board does not reset
+      r.settings = board_settings(rig, r.path, b);
+      if (r.settings) configure_motors(*r.board, r.caps, *r.settings, r.path);
+      for (uint8_t m = 0; m < r.caps.motor_count; ++m)
+        if (!jamming || std::find(song_motors.begin(), song_motors.end(), m) != song_motors.end()) r.song_ids.push_back(m);
+      boards.push_back(std::move(r));
+    }
     // Jam: the song's motors and the keyboard's.
-    std::vector<uint8_t> song_ids, live_ids;
-    for (uint8_t m = 0; m < caps.motor_count; ++m) {
-      const bool for_song = !jamming || std::find(song_motors.begin(), song_motors.end(), m) != song_motors.end();
-      (for_song ? song_ids : live_ids).push_back(m);
-    }
+    const Caps &caps0 = boards[0].caps;
+    std::vector<uint8_t> live_ids;
     if (jamming) {
       for (int m : song_motors)
-        if (m < 0 || m >= caps.motor_count)
+        if (m < 0 || m >= caps0.motor_count)
           throw std::runtime_error("--song-motors: motor " + std::to_string(m) + ": the board has motors 0-" +
-                                   std::to_string(caps.motor_count - 1));
-      if (song_ids.empty() || live_ids.empty())
+                                   std::to_string(caps0.motor_count - 1));
+      for (uint8_t m = 0; m < caps0.motor_count; ++m)
+        if (std::find(boards[0].song_ids.begin(), boards[0].song_ids.end(), m) == boards[0].song_ids.end())
+          live_ids.push_back(m);
+      if (boards[0].song_ids.empty() || live_ids.empty())
         throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the board has " +
-                                 std::to_string(caps.motor_count) + ")");
+                                 std::to_string(caps0.motor_count) + ")");
     }
-    const Plan plan = plan_song(song, plan_options(sel, song_ids, motor_music(settings, caps.f_cpu_hz, song_ids)));
-    report_plan(cmd, song, plan, song_ids.size());
+    // The song's motors of every board form one pool, in board order; plan motor k is pool[k].
+    std::vector<uint8_t> pool_ids;
+    std::vector<MotorConfig> music;
+    std::vector<std::pair<size_t, uint8_t>> owner;  // plan motor -> (board, index in its song_ids)
+    for (size_t b = 0; b < boards.size(); ++b) {
+      const auto m = motor_music(boards[b].settings, boards[b].caps.f_cpu_hz, boards[b].song_ids);
+      for (size_t i = 0; i < m.size(); ++i) {
+        pool_ids.push_back(static_cast<uint8_t>(pool_ids.size()));
+        music.push_back(m[i]);
+        owner.push_back({b, static_cast<uint8_t>(i)});
+      }
+    }
+    const Plan plan = plan_song(song, plan_options(sel, pool_ids, music));
+    report_plan(cmd, song, plan, pool_ids.size());
+    std::vector<std::vector<PlanEvent>> events(boards.size());
+    for (PlanEvent e : plan_events(plan)) {
+      const auto [b, i] = owner[e.motor];
+      e.motor = i;
+      events[b].push_back(e);
+    }
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;
-    std::unique_ptr<Board> song_board = std::move(board);
     if (jamming) {
       // The live path owns the link (its writer sends live notes first); the song goes
       // through it (JamLink). The live side plays the other motors.
-      LiveBoard lb{&song_board->link(), static_cast<uint8_t>(live_ids.size()), caps.f_cpu_hz, live_ids};
+      LiveBoard lb{&boards[0].board->link(), static_cast<uint8_t>(live_ids.size()), caps0.f_cpu_hz, live_ids};
       AllocatorConfig alloc = pool_config({lb}, parse_policy(policy));
-      const std::vector<MotorConfig> live_music = motor_music(settings, caps.f_cpu_hz, live_ids);
+      const std::vector<MotorConfig> live_music = motor_music(boards[0].settings, caps0.f_cpu_hz, live_ids);
       std::copy(live_music.begin(), live_music.end(), alloc.motors.begin());
       alloc.a4_hz = rig.config.a4_hz;
       alloc.priority = rig.config.priority;
@@ -379,43 +318,55 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       session->forward_replies(0);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
       session->start();
-      board = std::make_unique<Board>(std::make_unique<JamLink>(*session, 0, link_path));
       std::string ids_song, ids_live;
-      for (uint8_t m : song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(m);
+      for (uint8_t m : boards[0].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(m);
       for (uint8_t m : live_ids) ids_live += (ids_live.empty() ? "" : ",") + std::to_string(m);
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
                   midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
       std::fflush(stdout);
-    } else {
-      board = std::move(song_board);
     }
-    PlayerOptions po;
-    po.motors = song_ids;
-    po.exclusive = !jamming;
-    po.board_time = rendering;
-    po.lead_s = rendering ? kRenderLeadS : lead_ms / 1e3;
-    po.sync_s = sync_s;
-    po.loop = loop && !rendering;
-    po.auto_tune = !no_auto_tune;
-    po.a4_hz = rig.config.a4_hz;
-    LinkOpener opener;
-    if (!jamming) opener = [link_path] { return open_link(link_path); };  // jam: the live path reconnects
-    Player player(std::move(board), caps, plan_events(plan), plan.duration_s, po, opener);
+    // One player a board; with several, they take one start (StartGate) and play on their own
+    // clocks; a board lost mid-song drops its notes while the others play on.
+    StartGate gate(boards.size());
+    std::vector<std::unique_ptr<Player>> players;
+    std::vector<std::unique_ptr<Board>> song_board_for_jam;  // jam: the live session's link stays open
+    for (size_t b = 0; b < boards.size(); ++b) {
+      PlayerOptions po;
+      po.motors = boards[b].song_ids;
+      po.exclusive = !jamming;
+      po.board_time = rendering;
+      po.lead_s = rendering ? kRenderLeadS : lead_ms / 1e3;
+      po.sync_s = sync_s;
+      po.loop = loop && !rendering;
+      po.auto_tune = !no_auto_tune;
+      po.a4_hz = rig.config.a4_hz;
+      if (boards.size() > 1) po.start_gate = [&gate, b](uint64_t now_us) { return gate.ready(b, now_us); };
+      LinkOpener opener;
+      const std::string path = boards[b].path;
+      if (!jamming) opener = [path] { return open_link(path); };  // jam: the live path reconnects
+      std::unique_ptr<Board> board = std::move(boards[b].board);
+      if (jamming) {
+        song_board_for_jam.push_back(std::move(board));
+        board = std::make_unique<Board>(std::make_unique<JamLink>(*session, 0, path));
+      }
+      players.push_back(std::make_unique<Player>(std::move(board), boards[b].caps, std::move(events[b]),
+                                                 plan.duration_s, po, opener));
+    }
     Keys keys;
     const bool show = !quiet && !rendering && ::isatty(2);
-    const bool ok = player.run(
-        stop, g_pause, [&](const PlayerProgress &p) {
-          if (keys.poll()) stop = true;
-          if (!show) return;
-          const int width = 30;
-          const int done = p.duration_s > 0 ? static_cast<int>(width * p.position_s / p.duration_s) : width;
-          std::fprintf(stderr, "\r%s %s / %s [%s%s]%s late %llu%s\033[K", p.paused ? "paused " : "playing",
-                       clock_text(p.position_s).c_str(), clock_text(p.duration_s).c_str(),
-                       std::string(static_cast<size_t>(std::min(done, width)), '#').c_str(),
-                       std::string(static_cast<size_t>(width - std::min(done, width)), '.').c_str(),
-                       p.loop ? (" loop " + std::to_string(p.loop + 1)).c_str() : "",
-                       static_cast<unsigned long long>(p.stats->late_reported), p.paused ? " (space resumes)" : "");
-        });
+    std::vector<char> ok(players.size(), 1);
+    std::vector<std::thread> others;
+    for (size_t b = 1; b < players.size(); ++b)
+      others.emplace_back([&, b] {
+        ok[b] = players[b]->run(stop, g_pause, {});
+        gate.leave(b);
+      });
+    ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) {
+      if (keys.poll()) stop = true;
+      if (show) print_progress(p);
+    });
+    gate.leave(0);
+    for (std::thread &t : others) t.join();
     if (show) std::fprintf(stderr, "\n");
     if (jamming) {
       midi_in.reset();  // no more callbacks
@@ -425,26 +376,14 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
                   static_cast<unsigned long long>(session->latency().percentile(0.5)),
                   static_cast<unsigned long long>(session->latency().percentile(0.99)));
     }
-    const PlayerStats &s = player.stats();
-    char clock[160] = "";
-    if (!rendering)
-      std::snprintf(clock, sizeof clock, ", board clock %+.1f ppm (fit error %.0f us, timeline %+.1f ppm)", s.ppm,
-                    s.residual_us, s.rate_ppm);
-    std::printf("%s: %s; %llu entries in %llu frames, late %llu, queue full %llu, errors %llu, reconnects %llu, "
-                "least lead %.1f ms%s\n",
-                cmd.c_str(), ok ? (stop.load() ? "stopped, every motor silent" : "done, every motor silent") : "board lost",
-                static_cast<unsigned long long>(s.entries_sent), static_cast<unsigned long long>(s.frames_sent),
-                static_cast<unsigned long long>(s.late_reported), static_cast<unsigned long long>(s.queue_full),
-                static_cast<unsigned long long>(s.other_errors), static_cast<unsigned long long>(s.reconnects),
-                s.min_lead_ms > 1e8 ? 0.0 : s.min_lead_ms, clock);
-    if (s.board_frames_bad >= 0)
-      std::printf("%s: the board counted %ld bad frames, %ld UART overruns; last error: %s\n", cmd.c_str(),
-                  s.board_frames_bad, s.board_overruns, sc::error_name(s.board_last_error));
-    std::fflush(stdout);
-    if (!ok) {
-      std::fprintf(stderr, "%s: %s\n", cmd.c_str(), player.error().c_str());
-      return 1;
+    bool all_ok = true;
+    for (size_t b = 0; b < players.size(); ++b) {
+      report_player(players.size() > 1 ? cmd + ": " + boards[b].path : cmd, players[b]->stats(), ok[b], stop.load(),
+                    !rendering);
+      if (!ok[b]) std::fprintf(stderr, "%s: %s\n", cmd.c_str(), players[b]->error().c_str());
+      all_ok = all_ok && ok[b];
     }
+    if (!all_ok) return 1;
     if (rendering) {
       vb->stop();
       std::vector<std::string> args{trace, "-o", out_wav};

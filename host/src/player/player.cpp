@@ -361,7 +361,22 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     silence();
     return stop.load();
   }
-  const uint64_t begin = monotonic_us();
+  uint64_t begin = monotonic_us();
+  // Several boards: one start for all, once every board is synced; this board's clock is
+  // sampled meanwhile.
+  while (opt_.start_gate && !board_lost_) {
+    if (stop.load()) {
+      silence();
+      return true;
+    }
+    const uint64_t now = monotonic_us();
+    if (const uint64_t at = opt_.start_gate(now)) {
+      begin = at;
+      break;
+    }
+    if (now >= last_clock_us_ + kSyncEveryUs) send_clock_request(now);
+    read_replies(1);
+  }
   anchor(0.0, begin);
   sent_score_ = 0;
   playing_ = true;

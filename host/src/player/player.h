@@ -49,6 +49,10 @@ struct PlayerOptions {
   double reconnect_s = 30;       // a lost board is retried this long (0: give up at once)
   std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
   bool exclusive = true;         // the board is the song's alone (jam: false, see silence())
+  // Several boards in one song (player/start_gate.h): called once this board's clock is synced
+  // with the host time (us), and again every millisecond while it returns 0; then it returns
+  // the host time that every board takes for the song's start. Empty: this board alone.
+  std::function<uint64_t(uint64_t now_us)> start_gate;
 };
 
 // What the player did, for the progress line, the final report and tests.

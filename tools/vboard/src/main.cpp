@@ -137,6 +137,9 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   Pacer pacer(board.f_cpu_hz * options.speed, options.clock_ppm, kMaxCatchupNs);
   const uint64_t start_wall_ns = monotonic_ns();
   pacer.start(avr.cycle(), start_wall_ns);
+  // Where the board's cycles stand on the machine's monotonic clock, so that the traces of
+  // several boards (their own crystals) can be laid on one time line.
+  trace.comment("wall_start cycle=" + std::to_string(avr.cycle()) + " monotonic_ns=" + std::to_string(start_wall_ns));
   avr.set_end_cycle(end_cycle);
   uint64_t last_trace_flush_ns = start_wall_ns;
   LoopResult result;
