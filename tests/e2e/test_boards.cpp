@@ -2,6 +2,7 @@
 // fast and 1,500 ppm slow, each behind a 16U2 bridge model, play one song through `stepchoir
 // play --port A --port B`: their motors form one pool, each board's clock is synced on its own,
 // and the notes of both line up in real time (the traces laid on the machine's monotonic clock).
+// `stepchoir render --vboard uno,mega` writes one WAV and one piano roll of both boards' motors.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "analysis.h"
+#include "merge.h"
 #include "play_checks.h"
 #include "score.h"
 #include "smf_builder.h"
@@ -119,4 +121,38 @@ TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 brid
               (mean_a - mean_b) * 1e6, p99, off_us.back());
   CHECK(std::fabs(mean_a - mean_b) <= 0.5e-3);
   CHECK(p99 <= 1e3);
+}
+
+TEST_CASE("render: one song on an Uno and a Mega, one WAV and one piano roll of all nine motors", "[play][pacing]") {
+  const std::string path = std::string(STEPCHOIR_SONGS_DIR) + "/band-blues.mid";
+  const std::string trace = e2e::scratch("render-two.csv"), wav = e2e::scratch("render-two.wav");
+  int status = -1;
+  const std::string out = run_stepchoir({"render", path, "--tempo", "2", "--vboard", "uno,mega", "--trace", trace, "-o",
+                                         wav, "--png", e2e::scratch("render-two.png")},
+                                        &status);
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("on 9 motors") != std::string::npos);
+  CHECK(out.find("board=uno+mega") != std::string::npos);  // stepchoir-render's merged trace
+  CHECK(out.find("motor 8: steps=") != std::string::npos);
+  const tr::Trace uno = tr::read_trace(trace), mega = tr::read_trace(e2e::scratch("render-two-2.csv"));
+  REQUIRE(uno.motors == 4);
+  REQUIRE(mega.motors == 5);
+  PlanOptions o;
+  o.tempo_scale = 2;
+  o.motors.assign(9, MotorConfig{});
+  const Plan plan = plan_song(read_song_file(path), o);
+  // The boards' traces on one line, each placed by its first note: every planned note of both
+  // on time (board time: the render runs each board on its nominal clock) and in tune.
+  double first[2] = {-1, -1};
+  for (const PlanEvent &e : plan_events(plan)) {
+    double &f = first[e.motor >= 4];
+    if (!e.silent && f < 0) f = e.time_s;
+  }
+  REQUIRE(first[0] >= 0);
+  REQUIRE(first[1] >= 0);
+  const tr::Trace both = tr::merge_traces({uno, mega}, {first[0], first[1]});
+  REQUIRE(both.motors == 9);
+  const tr::ScoreCheck c = check_song("render, two boards", both, plan);
+  CHECK(std::fabs(c.tempo_ppm) < 1.0);
 }

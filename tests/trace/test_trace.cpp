@@ -7,9 +7,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "merge.h"
 #include "synth_trace.h"
 #include "trace.h"
 
+using sc::trace::merge_traces;
 using sc::trace::parse_trace;
 using sc::trace::read_trace;
 using sc::trace::Trace;
@@ -118,6 +120,24 @@ TEST_CASE("the wall_start line lays the board's cycles on the machine's monotoni
   CHECK_FALSE(parse_trace(std::string(kHeader) + kColumns).has_wall_start);
   CHECK_THROWS_WITH(parse_trace(std::string(kHeader) + kColumns + "# wall_start cycle=1\n"),
                     Catch::Contains("lacks cycle= or monotonic_ns="));
+}
+
+TEST_CASE("merged traces: every board's motors, each placed by its first note's song time", "[trace]") {
+  const std::string head = "# stepchoir-vboard trace v1 board=uno f_cpu=1000 motors=1\n"
+                           "event,motor,cycle,value,position,width\n";
+  // board A's first step (song time 1 s) at cycle 5000, board B's (song time 0.5 s) at 2000
+  const Trace a = parse_trace(head + "step,0,5000,1,1,10\nstep,0,6000,1,2,10\n");
+  const Trace b = parse_trace(head + "step,0,2000,1,1,10\n");
+  const Trace both = merge_traces({a, b}, {1.0, 0.5});
+  REQUIRE(both.motors == 2);
+  REQUIRE(both.motor.size() == 2);
+  CHECK(both.board == "uno+uno");
+  // song time 0: A at cycle 4000, B at 1500; on the merged line both at 4000
+  CHECK(both.motor[0].steps[0].rise_cycle == 5000);
+  CHECK(both.motor[1].steps[0].rise_cycle == 4500);
+  Trace other = b;
+  other.f_cpu_hz = 2000;
+  CHECK_THROWS_WITH(merge_traces({a, other}, {1.0, 0.5}), Catch::Contains("another clock"));
 }
 
 TEST_CASE("without an end line the end is the last falling edge - CRLF and blank lines are fine", "[trace]") {

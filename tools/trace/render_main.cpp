@@ -1,10 +1,13 @@
 // render_main.cpp: stepchoir-render, turns a virtual-board trace into a WAV and a PNG piano roll.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include "analysis.h"
+#include "merge.h"
 #include "render.h"
 #include "trace.h"
 
@@ -15,7 +18,10 @@ constexpr int kMaxSampleRateHz = 384000;
 // Prints how to call the program.
 void usage(FILE* out) {
   std::fprintf(out,
-               "usage: stepchoir-render TRACE.csv [-o out.wav] [--png roll.png] [--rate HZ]\n"
+               "usage: stepchoir-render TRACE.csv [--first-note S] [TRACE.csv --first-note S ...] [-o out.wav]\n"
+               "                        [--png roll.png] [--rate HZ]\n"
+               "  --first-note S  the song time (s) of the trace's first step: several boards' traces of one\n"
+               "               song (each given it) become one, every board's motors on one time line\n"
                "  -o FILE      write a 16-bit mono WAV (real-time axis)\n"
                "  --png FILE   write a piano-roll PNG\n"
                "  --rate HZ    WAV sample rate (default %d)\n"
@@ -48,7 +54,9 @@ void print_summary(const sc::trace::Trace& trace) {
 
 // Parses the command line, reads the trace and writes the requested outputs.
 int main(int argc, char** argv) {
-  std::string trace_path, wav_path, png_path;
+  std::vector<std::string> trace_paths;
+  std::vector<double> first_notes;  // NaN: not given
+  std::string wav_path, png_path;
   int rate_hz = sc::trace::kDefaultSampleRateHz;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
@@ -75,23 +83,39 @@ int main(int argc, char** argv) {
         return 2;
       }
       rate_hz = int(rate);
+    } else if (arg == "--first-note") {
+      const std::string text = value("--first-note");
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (trace_paths.empty() || text.empty() || *end != '\0' || !std::isfinite(v) || v < 0) {
+        std::fprintf(stderr, "stepchoir-render: --first-note '%s': a time in seconds after a trace\n", text.c_str());
+        return 2;
+      }
+      first_notes.back() = v;
     } else if (!arg.empty() && arg[0] == '-') {
       std::fprintf(stderr, "stepchoir-render: unknown option '%s'\n", arg.c_str());
       usage(stderr);
       return 2;
-    } else if (trace_path.empty()) {
-      trace_path = arg;
     } else {
-      std::fprintf(stderr, "stepchoir-render: more than one trace given\n");
-      return 2;
+      trace_paths.push_back(arg);
+      first_notes.push_back(NAN);
     }
   }
-  if (trace_path.empty() || (wav_path.empty() && png_path.empty())) {
+  if (trace_paths.empty() || (wav_path.empty() && png_path.empty())) {
     usage(stderr);
     return 2;
   }
+  if (trace_paths.size() > 1)
+    for (size_t k = 0; k < trace_paths.size(); ++k)
+      if (std::isnan(first_notes[k])) {
+        std::fprintf(stderr, "stepchoir-render: %s: several traces need --first-note after each\n",
+                     trace_paths[k].c_str());
+        return 2;
+      }
   try {
-    sc::trace::Trace trace = sc::trace::read_trace(trace_path);
+    std::vector<sc::trace::Trace> traces;
+    for (const std::string& path : trace_paths) traces.push_back(sc::trace::read_trace(path));
+    sc::trace::Trace trace = traces.size() == 1 ? std::move(traces[0]) : sc::trace::merge_traces(traces, first_notes);
     print_summary(trace);
     if (!wav_path.empty()) {
       sc::trace::AudioOptions audio;

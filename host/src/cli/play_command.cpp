@@ -149,8 +149,9 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
                   "Pitched lines that take motors first, in order: tN (track N), cN (channel 1-16)")->delimiter(',');
     s->add_option("--min-note-ms", c->sel.min_note_ms, "Leave out notes shorter than this")
         ->check(CLI::Range(0.0, 1000.0))->default_val(c->sel.min_note_ms);
-    s->add_option("--vboard", c->vboard, "Board the virtual board simulates (without --port)")
-        ->check(CLI::IsMember({"uno", "mega"}))->default_val(c->vboard);
+    s->add_option("--vboard", c->vboards,
+                  "Board the virtual board simulates (without --port); several (uno,mega): one song on all")
+        ->delimiter(',')->check(CLI::IsMember({"uno", "mega"}))->default_str("uno");
     s->add_option("--vboard-link", c->vboard_link,
                   "The virtual board's USB bridge (default: the virtual board's; docs/usb-bridges.md)")
         ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
@@ -229,11 +230,14 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       for (const BoardSettings &b : rig.config.boards)
         if (!b.port.empty()) paths.push_back(b.port);
     if (jamming && paths.size() > 1) throw std::runtime_error("jam plays on one board (give --port once)");
-    std::unique_ptr<VirtualBoard> vb;
-    std::string trace = rendering ? keep_trace : vboard_trace;
-    if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
+    // Without a board: the virtual boards of --vboard (several: one song on all), each with its
+    // trace (the first at the path given, the others beside it: T-2.csv, ...).
+    std::vector<std::unique_ptr<VirtualBoard>> vbs;
+    std::vector<std::string> traces;
     if (paths.empty()) {
-      const std::string link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + ".pty";
+      if (jamming && vboards.size() > 1) throw std::runtime_error("jam plays on one board (give --vboard once)");
+      std::string trace = rendering ? keep_trace : vboard_trace;
+      if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
       // No per-instruction interrupt accounting: a faster simulation keeps real time on a busy
       // machine and renders sooner.
       std::vector<std::string> extra{"--no-measure"};
@@ -242,10 +246,18 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (rendering) extra.insert(extra.end(), {"--speed", std::to_string(kRenderSpeed)});
       if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
       if (!vboard_link.empty()) extra.insert(extra.end(), {"--link-model", vboard_link});
-      vb = std::make_unique<VirtualBoard>(vboard, link_path, trace, extra);
-      if (!rendering)
-        std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboard.c_str(), link_path.c_str());
-      paths.push_back(link_path);
+      for (size_t k = 0; k < vboards.size(); ++k) {
+        const std::string n = k ? "-" + std::to_string(k + 1) : "";
+        const std::string link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + n + ".pty";
+        std::string t = trace;
+        if (k && !t.empty()) t = (t.size() > 4 && t.substr(t.size() - 4) == ".csv" ? t.substr(0, t.size() - 4) : t) + n + ".csv";
+        vbs.push_back(std::make_unique<VirtualBoard>(vboards[k], link_path, t, extra));
+        traces.push_back(t);
+        if (!rendering)
+          std::printf("%s: no --port: playing on the virtual board (%s) at %s\n", cmd.c_str(), vboards[k].c_str(),
+                      link_path.c_str());
+        paths.push_back(link_path);
+      }
     }
     // Each board greeted and configured from the rig file (its virtual stand-in too).
     struct BoardRun {
@@ -260,7 +272,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       BoardRun r;
       r.path = paths[b];
       r.board = std::make_unique<Board>(open_link(r.path));
-      r.caps = vb ? r.board->hello() : r.board->greet();  // its own board does not reset
+      r.caps = vbs.empty() ? r.board->greet() : r.board->hello();  // its own board does not reset
       r.settings = board_settings(rig, r.path, b);
       if (r.settings) configure_motors(*r.board, r.caps, *r.settings, r.path);
       for (uint8_t m = 0; m < r.caps.motor_count; ++m)
@@ -297,9 +309,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     const Plan plan = plan_song(song, plan_options(sel, pool_ids, music));
     report_plan(cmd, song, plan, pool_ids.size());
     std::vector<std::vector<PlanEvent>> events(boards.size());
+    std::vector<double> first_note_s(boards.size(), -1);  // render: each board's first note
     for (PlanEvent e : plan_events(plan)) {
       const auto [b, i] = owner[e.motor];
       e.motor = i;
+      if (!e.silent && first_note_s[b] < 0) first_note_s[b] = e.time_s;
       events[b].push_back(e);
     }
     std::unique_ptr<LiveSession> session;
@@ -385,11 +399,19 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     }
     if (!all_ok) return 1;
     if (rendering) {
-      vb->stop();
-      std::vector<std::string> args{trace, "-o", out_wav};
+      // One WAV and one piano roll of every board's motors: each trace placed by its first note.
+      std::vector<std::string> args;
+      for (size_t k = 0; k < vbs.size(); ++k) {
+        vbs[k]->stop();
+        if (vbs.size() > 1 && first_note_s[k] < 0) continue;  // a board that played nothing
+        args.push_back(traces[k]);
+        if (vbs.size() > 1) args.insert(args.end(), {"--first-note", std::to_string(first_note_s[k])});
+      }
+      args.insert(args.end(), {"-o", out_wav});
       if (!out_png.empty()) args.insert(args.end(), {"--png", out_png});
-      const int rc = run_sibling(vb->path(), "stepchoir-render", args);
-      if (keep_trace.empty()) ::unlink(trace.c_str());
+      const int rc = run_sibling(vbs[0]->path(), "stepchoir-render", args);
+      if (keep_trace.empty())
+        for (const std::string &t : traces) ::unlink(t.c_str());
       if (rc != 0) {
         std::fprintf(stderr, "render: stepchoir-render failed (exit %d)\n", rc);
         return 1;

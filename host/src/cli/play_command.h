@@ -32,7 +32,8 @@ struct PlayCommand {
   SongSelection sel;
   // play
   std::vector<std::string> ports;  // boards (none: the rig's, else the virtual board); jam: one
-  std::string vboard = "uno", vboard_trace, vboard_link;  // vboard_link: empty = its default
+  std::vector<std::string> vboards{"uno"};  // without ports: the virtual boards to start
+  std::string vboard_trace, vboard_link;    // vboard_link: empty = its default
   double clock_ppm = 0, lead_ms = 300, sync_s = 1.0;
   bool loop = false, quiet = false, no_auto_tune = false;
   int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing
