@@ -2,15 +2,20 @@
 // real JACK MIDI connection into the real firmware on the virtual board; plus wire time.
 #include <CLI/CLI.hpp>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <algorithm>
+#include <vector>
 #include <fstream>
 #include <string>
 #include <thread>
 
 #include "board/board.h"
+#include "score.h"
+#include "trace.h"
 #include "jack_rig.h"
 #include "live/midi_in.h"
 #include "live/session.h"
@@ -55,13 +60,20 @@ int main(int argc, char **argv) {
       ->check(CLI::Range(16, 4096));
   app.add_flag("--jack-realtime", jack_realtime, "run jackd with realtime scheduling (-R)");
   app.add_option("--board", board_name, "virtual board: uno or mega")->check(CLI::IsMember({"uno", "mega"}));
+  std::string link_model = "ideal";
+  app.add_option("--link-model", link_model, "the virtual board's USB bridge: ideal, 16u2, ftdi or ch340")
+      ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
+  int onsets = 200;
+  app.add_option("--onsets", onsets, "notes of the key -> first STEP phase, 50 ms apart (default 200)")
+      ->check(CLI::Range(10, 100000));
   CLI11_PARSE(app, argc, argv);
   std::string command;
   for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
 
   JackServer jack(jack_period, jack_realtime);
   Sender keys;
-  VboardProcess vb({"--board", board_name, "--quiet", "--no-measure"});
+  const std::string trace_file = "/tmp/stepchoir-bench-live-" + std::to_string(::getpid()) + ".csv";
+  VboardProcess vb({"--board", board_name, "--quiet", "--no-measure", "--link-model", link_model, "--trace", trace_file});
   Board board(open_link(vb.pty()));
   const Caps caps = board.hello();
   const std::vector<LiveBoard> pool{{&board.link(), caps.motor_count, caps.f_cpu_hz}};
@@ -85,6 +97,18 @@ int main(int argc, char **argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cpu_s = cpu_seconds() - cpu0;
+  // Key -> first STEP edge: single notes 50 ms apart, each released after 20 ms, so that each
+  // starts a silent motor; the send times against the trace's edges on the monotonic clock.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::vector<uint64_t> key_us;
+  for (int i = 0; i < onsets; ++i) {
+    const uint8_t note = static_cast<uint8_t>(60 + i % 12);
+    key_us.push_back(monotonic_us());
+    keys.send(note_on(0, note, 100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    keys.send(note_off(0, note));
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  }
   // What the board says once everything was released: a status request goes out each second.
   std::this_thread::sleep_for(std::chrono::milliseconds(2 * kStatusEveryMs + 200));
   const BoardStats &stats = session.board_stats(0);
@@ -94,6 +118,27 @@ int main(int argc, char **argv) {
   for (size_t m = 0; m < session.motor_count(); ++m)
     if (session.motor_note(m) >= 0) held |= 1u << m;
   session.stop();
+  vb.stop();
+  // Each key's first STEP edge: the first edge after a silence of 15 ms or more on any motor,
+  // after the key, within 20 ms.
+  const sc::trace::Trace trace = sc::trace::read_trace(trace_file);
+  ::unlink(trace_file.c_str());
+  const long slipped_us = sc::trace::pacing_slipped_us(trace);
+  std::vector<double> starts_s;  // monotonic clock, s
+  for (const auto &m : trace.motor)
+    for (size_t i = 0; i < m.steps.size(); ++i)
+      if (i == 0 || trace.real_seconds(m.steps[i].rise_cycle) - trace.real_seconds(m.steps[i - 1].rise_cycle) > 0.015)
+        starts_s.push_back(trace.wall_seconds(trace.real_seconds(m.steps[i].rise_cycle)));
+  std::sort(starts_s.begin(), starts_s.end());
+  std::vector<double> key_to_step_us;
+  for (uint64_t k : key_us) {
+    const auto it = std::lower_bound(starts_s.begin(), starts_s.end(), k / 1e6);
+    if (it != starts_s.end() && *it - k / 1e6 < 0.020) key_to_step_us.push_back((*it - k / 1e6) * 1e6);
+  }
+  std::sort(key_to_step_us.begin(), key_to_step_us.end());
+  auto pct = [&](double q) {
+    return key_to_step_us.empty() ? 0.0 : key_to_step_us[static_cast<size_t>(q * (key_to_step_us.size() - 1))];
+  };
 
   const LatencyHistogram &h = session.latency();
   const uint64_t p50 = h.percentile(0.5), p99 = h.percentile(0.99), max = h.max_us();
@@ -127,6 +172,10 @@ int main(int argc, char **argv) {
       << sc::kBaud << " baud | " << wire1 << " us |\n"
       << "| wire time of a 3-note chord in one frame | " << wire_us(3 * sc::kSetPeriodBytes) << " us |\n"
       << "| host p99 + wire (one note) | " << p99 + wire1 << " us |\n"
+      << "| link model (the USB bridge between host and board) | " << link_model << " |\n"
+      << "| key -> first STEP edge (" << key_to_step_us.size() << " of " << onsets
+      << " single notes found), p50 / p99 / max | " << pct(0.5) << " / " << pct(0.99) << " / " << pct(1.0) << " us |\n"
+      << "| the virtual board fell behind real time meanwhile (given up) | " << slipped_us << " us |\n"
       << "| send phase | " << send_s << " s (" << events / send_s << " events per second) |\n"
       << "| after the last release: motors the board reports sounding (bit mask) | " << sounding << " |\n"
       << "| after the last release: motors the host still plays (bit mask; a note-off lost inside JACK) | " << held
@@ -139,14 +188,20 @@ int main(int argc, char **argv) {
       << "| CPU of this process (sender, MidiIn, engine, writer, reader) | " << 100.0 * cpu_s / wall_s
       << " % of one core over " << wall_s << " s |\n"
       << "| peak memory of this process (resident) | " << peak_rss_mib() << " MiB |\n\n"
-      << "The firmware's part (frame's last byte -> first STEP edge) is measured on the virtual board "
-         "separately; the whole-system figure is this p99 + wire time + that. A note-on on a DIN MIDI cable "
-         "takes 960 us (3 bytes at 31,250 baud).\n\n"
+      << "Key -> first STEP edge: " << onsets << " single notes 50 ms apart after the flood, from the sender's "
+         "clock just before it hands the note to JACK to the board's first STEP edge, the trace laid on the same "
+         "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames at 48 kHz, "
+      << jack_period / 48.0 << " ms at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
+         "none; 16u2: the next 1 ms USB frame), the wire (above) and the firmware (frame's last byte -> first STEP "
+         "edge, measured in bench/results/onset-latency.md). A note-on on a DIN MIDI cable takes 960 us (3 bytes at "
+         "31,250 baud).\n\n"
       << "Events that never reached the callback were lost inside JACK (its xruns on a loaded "
          "machine), before the live path.\n\n"
       << "Machine: 2 shared cores, other engineers' builds and virtual boards running; JACK "
       << (jack_realtime ? "with" : "without") << " realtime scheduling.\n";
   out.close();
+  std::printf("key -> first STEP p50 %.0f us, p99 %.0f us (%zu notes, %s link); ", pct(0.5), pct(0.99),
+              key_to_step_us.size(), link_model.c_str());
   std::printf("p50 %llu us, p99 %llu us, max %llu us over %llu samples; wire %.0f us; written %s\n",
               static_cast<unsigned long long>(p50), static_cast<unsigned long long>(p99),
               static_cast<unsigned long long>(max), static_cast<unsigned long long>(h.count()), wire1, path.c_str());
