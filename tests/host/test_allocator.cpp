@@ -992,3 +992,68 @@ TEST_CASE("percussion channels are not sung: channel 10, and a drum kit chosen b
   REQUIRE(r.a.configure(c));
   CHECK(r.on(kGmDrumChannel, 36).size() == 1);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Vibrato (mod wheel, aftertouch)
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("vibrato: the mod wheel adds a sine in pitch, depth linear in it, faded in, gone with the wheel") {
+  AllocatorConfig c = poly(2);
+  c.vibrato.rate_hz = 5.0;  // a quarter cycle every 50 ms
+  c.vibrato.depth_cents = 50.0;
+  c.vibrato.fade_ms = 100.0;
+  Rig r(c);
+  MidiEvent on = note_on(0, 69, 100);
+  on.timestamp_us = 1000000;
+  r.send(on);
+  CHECK_FALSE(r.a.vibrating());
+  MidiEvent wheel = control_change(0, kCcModWheel, 127);
+  wheel.timestamp_us = 1000000;
+  r.send(wheel);
+  CHECK(r.a.vibrating());
+  std::vector<sc::PeriodEntry> out(Allocator::kMaxMotors);
+  auto at = [&](uint64_t us) {  // the motor's period after a tick at 1 s + us
+    out.resize(Allocator::kMaxMotors);
+    out.resize(r.a.tick(1000000 + us, out.data(), out.size()));
+    for (const auto &p : out) r.board[p.motor] = p.period_q8;
+    return r.board[0];
+  };
+  CHECK(at(0) == expected_period(69));  // the sine starts at 0 with the note
+  CHECK(at(25000) == expected_period(69, 0, 50.0 * 0.25 * std::sin(M_PI / 4)));  // fading in: a quarter
+  CHECK(at(50000) == expected_period(69, 0, 50.0 * 0.5));                        // the peak, half faded in
+  CHECK(at(150000) == expected_period(69, 0, -50.0));                            // the trough, full depth
+  CHECK(at(200000) == expected_period(69));
+  // half the wheel, half the depth
+  MidiEvent half = control_change(0, kCcModWheel, 64);
+  half.timestamp_us = 1250000;
+  r.send(half);
+  CHECK(r.board[0] == expected_period(69, 0, 50.0 * 64 / 127));
+  // the wheel down: the note's own pitch, and no more ticks
+  MidiEvent down = control_change(0, kCcModWheel, 0);
+  down.timestamp_us = 1260000;
+  r.send(down);
+  CHECK(r.board[0] == expected_period(69));
+  CHECK_FALSE(r.a.vibrating());
+  // reset-all-controllers lowers the wheel too
+  r.send(control_change(0, kCcModWheel, 127));
+  CHECK(r.a.vibrating());
+  r.send(control_change(0, kCcResetAllControllers, 0));
+  CHECK_FALSE(r.a.vibrating());
+}
+
+TEST_CASE("vibrato: channel aftertouch sets the depth only when configured, and never allocates") {
+  AllocatorConfig c = poly(2);
+  Rig plain(c);
+  plain.on(0, 60);
+  plain.send(MidiEvent{static_cast<uint8_t>(kMidiChannelPressure | 0), 100, 0, 0});
+  CHECK_FALSE(plain.a.vibrating());
+  c.vibrato.aftertouch = true;
+  Rig pressed(c);
+  pressed.on(0, 60);
+  pressed.send(MidiEvent{static_cast<uint8_t>(kMidiChannelPressure | 0), 100, 0, 0});
+  CHECK(pressed.a.vibrating());
+  sc::PeriodEntry out[Allocator::kMaxMotors];
+  const size_t before = g_allocations;
+  for (uint64_t t = 0; t < 1000000; t += kVibratoTickUs) pressed.a.tick(t, out, Allocator::kMaxMotors);
+  CHECK(g_allocations == before);
+}

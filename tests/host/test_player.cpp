@@ -205,7 +205,7 @@ TEST_CASE("clock: a board that falls 10 ms behind for a moment and catches up mo
   }
 }
 
-TEST_CASE("players: several boards take one start once every one is synced; one that gave up holds none back",
+TEST_CASE("players: several boards take one start once every one is synced, and one that gave up holds none back",
           "[player]") {
   StartGate gate(3);
   CHECK(gate.ready(0, 1000) == 0);

@@ -326,6 +326,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       const std::vector<MotorConfig> live_music = motor_music(boards[0].settings, caps0.f_cpu_hz, live_ids);
       std::copy(live_music.begin(), live_music.end(), alloc.motors.begin());
       alloc.a4_hz = rig.config.a4_hz;
+      alloc.vibrato = rig.config.vibrato;
       alloc.priority = rig.config.priority;
       alloc.sing_percussion = rig.config.sing_percussion;
       session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, alloc);

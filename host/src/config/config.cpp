@@ -172,7 +172,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     throw std::runtime_error(source + ":" + std::to_string(e.source().begin.line) + ":" +
                              std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
-  known_keys(source, root, {"a4_hz", "midi", "allocation", "boards"}, "the top level");
+  known_keys(source, root, {"a4_hz", "midi", "allocation", "vibrato", "boards"}, "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
   if (const toml::node *n = root.get("midi")) {
@@ -200,6 +200,18 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     if (const toml::node *sp = t->get("sing_percussion")) {
       if (!sp->is_boolean()) fail(source, *sp, "sing_percussion: expected true or false");
       c.sing_percussion = sp->value_or(false);
+    }
+  }
+  if (const toml::node *n = root.get("vibrato")) {
+    const toml::table *t = n->as_table();
+    if (!t) fail(source, *n, "[vibrato] must be a table");
+    known_keys(source, *t, {"rate_hz", "depth_cents", "fade_ms", "aftertouch"}, "[vibrato]");
+    c.vibrato.rate_hz = get_number(source, *t, "rate_hz", 0.1, 20.0, c.vibrato.rate_hz);
+    c.vibrato.depth_cents = get_number(source, *t, "depth_cents", 0.0, 200.0, c.vibrato.depth_cents);
+    c.vibrato.fade_ms = get_number(source, *t, "fade_ms", 0.0, 5000.0, c.vibrato.fade_ms);
+    if (const toml::node *a = t->get("aftertouch")) {
+      if (!a->is_boolean()) fail(source, *a, "aftertouch: expected true or false");
+      c.vibrato.aftertouch = a->value_or(false);
     }
   }
   if (const toml::node *n = root.get("boards")) {
@@ -261,6 +273,15 @@ priority = "oldest"
 # Drum channels (General MIDI channel 10, or a channel whose bank select chose a drum kit) play
 # hits, not pitches: their notes are ignored unless this is true.
 sing_percussion = false
+
+[vibrato]
+# The mod wheel (CC1) adds a sine in pitch: its rate (Hz), its peak depth (cents) with the wheel
+# full up (linear below), and how long (ms) it fades in after a note starts.
+rate_hz = 5.5
+depth_cents = 50.0
+fade_ms = 150.0
+# true: channel aftertouch sets the depth too (the larger of the wheel and the pressure).
+aftertouch = false
 
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
 # uses the first board's port; with no board and no --port, live, play and jam start the virtual

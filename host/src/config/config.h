@@ -36,6 +36,7 @@ struct LiveConfig {
   Priority priority = Priority::kOldest;
   bool sing_percussion = false;  // [allocation] sing_percussion: drum channels' notes as pitches
   double a4_hz = kA4Hz;
+  VibratoConfig vibrato;          // [vibrato]: the mod wheel's
   std::vector<BoardSettings> boards;
 };
 

@@ -20,10 +20,12 @@ constexpr uint8_t kMidiNoteOff = 0x80;
 constexpr uint8_t kMidiNoteOn = 0x90;
 constexpr uint8_t kMidiControlChange = 0xB0;
 constexpr uint8_t kMidiProgramChange = 0xC0;
+constexpr uint8_t kMidiChannelPressure = 0xD0;  // aftertouch of the whole channel
 constexpr uint8_t kMidiPitchBend = 0xE0;
 
 // Controller numbers (data1 of a control change) the engine understands.
 constexpr uint8_t kCcBankSelectMsb = 0;
+constexpr uint8_t kCcModWheel = 1;
 constexpr uint8_t kCcDataEntryMsb = 6;
 constexpr uint8_t kCcDataEntryLsb = 38;
 constexpr uint8_t kCcSustain = 64;

@@ -58,6 +58,7 @@ void Allocator::reset_state() noexcept {
 
 size_t Allocator::handle(const MidiEvent &e, sc::PeriodEntry *out, size_t max_out) noexcept {
   const uint8_t type = e.status & 0xF0, ch = e.status & 0x0F;
+  if (e.timestamp_us > now_us_) now_us_ = e.timestamp_us;
   const bool valid = e.status >= 0x80 && e.status < 0xF0 && e.data1 < 128 && e.data2 < 128;
   if (valid) {
     switch (type) {
@@ -72,9 +73,31 @@ size_t Allocator::handle(const MidiEvent &e, sc::PeriodEntry *out, size_t max_ou
         channels_[ch].bend = static_cast<uint16_t>(e.data1 | (e.data2 << 7));
         retune_channel(ch);
         break;
-      default: break;  // aftertouch: nothing to do
+      case kMidiChannelPressure:
+        channels_[ch].pressure = e.data1;
+        if (config_.vibrato.aftertouch) retune_channel(ch);
+        break;
+      default: break;  // polyphonic aftertouch: nothing to do
     }
   }
+  return flush(out, max_out);
+}
+
+uint8_t Allocator::vibrato_amount(uint8_t ch) const noexcept {
+  const Channel &c = channels_[ch];
+  return config_.vibrato.aftertouch && c.pressure > c.mod ? c.pressure : c.mod;
+}
+
+bool Allocator::vibrating() const noexcept {
+  for (size_t m = 0; m < config_.motor_count; ++m)
+    if (voices_[m].active && vibrato_amount(voices_[m].channel) > 0) return true;
+  return false;
+}
+
+size_t Allocator::tick(uint64_t now_us, sc::PeriodEntry *out, size_t max_out) noexcept {
+  if (now_us > now_us_) now_us_ = now_us;
+  for (size_t m = 0; m < config_.motor_count; ++m)
+    if (voices_[m].active && vibrato_amount(voices_[m].channel) > 0) retune(m);
   return flush(out, max_out);
 }
 
@@ -205,7 +228,7 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note) noexcept {
     int octaves;
     resolve(best, note, &best_played, &octaves);
   }
-  voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_};
+  voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_, now_us_};
   retune(best);
 }
 
@@ -267,6 +290,7 @@ void Allocator::mono_update(uint8_t ch) noexcept {
     const uint8_t note = c.keys[c.depth - 1];
     Voice &v = voices_[m];
     if (!v.active || v.note != note) v.started = ++sequence_;
+    if (!v.active) v.onset_us = now_us_;  // a legato change keeps the vibrato's phase
     v.active = true;
     v.channel = ch;
     v.note = note;
@@ -313,7 +337,9 @@ void Allocator::retune(size_t m) noexcept {
     return;
   }
   const MotorConfig &mc = config_.motors[m];
-  double pitch = v.played + bend_semitones(v.channel) + mc.tuning_cents / 100.0;
+  const uint64_t age_us = now_us_ > v.onset_us ? now_us_ - v.onset_us : 0;
+  double pitch = v.played + bend_semitones(v.channel) + mc.tuning_cents / 100.0 +
+                 vibrato_cents(config_.vibrato, vibrato_amount(v.channel), age_us) / 100.0;
   // A bend or tuning may push the note past what a board plays (sc::kPeriodQ8Min and Max):
   // fold it by octaves, as the range folding does, rather than have the board refuse the frame.
   uint32_t period = hz_to_period_q8(note_hz(pitch, config_.a4_hz), mc.f_cpu_hz);
@@ -337,6 +363,10 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
   Channel &c = channels_[ch];
   switch (cc) {
     case kCcSustain: set_pedal(ch, value >= 64); break;
+    case kCcModWheel:
+      c.mod = value;
+      retune_channel(ch);
+      break;
     case kCcBankSelectMsb: c.bank = value; break;
     case kCcRpnMsb: c.rpn_msb = value; break;
     case kCcRpnLsb: c.rpn_lsb = value; break;
@@ -358,6 +388,7 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
       c.range_semitones = kDefaultBendRange;
       c.range_cents = 0;
       c.rpn_msb = c.rpn_lsb = 127;
+      c.mod = c.pressure = 0;
       retune_channel(ch);
       break;
     case kCcAllNotesOff:

@@ -33,7 +33,9 @@
 // melodic again).
 //
 // MIDI handled, per channel: note on/off (velocity 0 = off), sustain pedal (CC64), pitch bend
-// with a per-channel range (RPN 0 through CC101/100 + CC6/38), all-sound-off (CC120),
+// with a per-channel range (RPN 0 through CC101/100 + CC6/38), vibrato on the mod wheel (CC1)
+// and, when configured, channel aftertouch (live/vibrato.h; tick() moves it on between
+// events), all-sound-off (CC120),
 // reset-all-controllers (CC121), all-notes-off (CC123; CC124-127 imply it, as MIDI says).
 // Channel mode messages act on the channel they arrive on, as MIDI defines; panic() acts on
 // everything. Every other message is ignored.
@@ -47,6 +49,7 @@
 
 #include "core/midi_event.h"
 #include "core/pitch.h"
+#include "live/vibrato.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
@@ -83,6 +86,7 @@ struct AllocatorConfig {
   Priority priority = Priority::kOldest;
   bool sing_percussion = false;  // true: percussion channels' notes take motors as pitches
   double a4_hz = kA4Hz;     // tuning reference for every motor
+  VibratoConfig vibrato;    // the mod wheel's (and aftertouch's) vibrato
   std::array<MotorConfig, kMaxMotors> motors{};
   // kMono only: the channel (0-15) whose group motor m belongs to, or -1 for none.
   std::array<int8_t, kMaxMotors> mono_channel = filled(-1);
@@ -134,6 +138,13 @@ class Allocator {
   // Called from: the engine thread. Does not allocate, block or throw.
   size_t handle(const MidiEvent &event, sc::PeriodEntry *out, size_t max_out) noexcept;
 
+  // Moves vibrato on to now_us (monotonic_us): retunes every motor whose channel's mod wheel
+  // (or aftertouch) is up and writes those whose period changed, as handle() does.
+  // Called from: the engine thread, every kVibratoTickUs while vibrating(). Does not allocate.
+  size_t tick(uint64_t now_us, sc::PeriodEntry *out, size_t max_out) noexcept;
+  // True while a sounding motor's channel has its mod wheel (or aftertouch) up.
+  bool vibrating() const noexcept;
+
   // Writes the motors whose period changed since it was last reported, at most max_out.
   // Called from: the engine thread. Does not allocate or block.
   size_t flush(sc::PeriodEntry *out, size_t max_out) noexcept;
@@ -169,6 +180,7 @@ class Allocator {
     uint8_t channel = 0, note = 0, played = 0;
     bool held = false, sustained = false;
     uint64_t started = 0;  // note-on sequence number (kPoly stealing)
+    uint64_t onset_us = 0;  // when the motor began this note (its vibrato's phase)
   };
 
   struct Channel {
@@ -178,6 +190,7 @@ class Allocator {
     uint8_t rpn_msb = 127, rpn_lsb = 127;  // selected RPN; 127/127 = none
     uint8_t bank = 0;                      // bank select MSB, taken at the next program change
     bool percussion = false;               // a drum kit: its notes are hits, not pitches
+    uint8_t mod = 0, pressure = 0;         // mod wheel (CC1) and channel aftertouch
     // kMono/kChannel note memory: keys in press order, most recent last, no duplicates;
     // key_up marks keys released while the pedal was down (they still count).
     std::array<uint8_t, 128> keys{};
@@ -212,6 +225,8 @@ class Allocator {
   std::array<uint8_t, kMaxMotors> owner_{};      // kMono/kChannel: channel of the group, kNone
   std::array<Channel, 16> channels_{};
   uint64_t sequence_ = 0;
+  uint64_t now_us_ = 0;  // the time of the event or tick being applied (vibrato's clock)
+  uint8_t vibrato_amount(uint8_t ch) const noexcept;  // the controller that sets its depth
 };
 
 }  // namespace stepchoir

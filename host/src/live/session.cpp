@@ -87,23 +87,36 @@ int LiveSession::motor_note(size_t m) const noexcept {
 
 // The engine thread: MIDI events -> allocator -> boards; on stop, silence. Per event:
 // Allocator::handle (table walks and one exp2 per retuned motor, a few us) and one
-// BoardLink::post per changed motor. Never allocates, locks or logs (RtScope).
+// BoardLink::post per changed motor; while a motor vibrates, every kVibratoTickUs an
+// Allocator::tick (one sine and one exp2 per vibrating motor) and a post per motor whose
+// period moved. Never allocates, locks or logs (RtScope).
 void LiveSession::engine_loop() {
   sched_param p{};
   p.sched_priority = kEnginePriority;
   realtime_.fetch_add(pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0 ? 1 : 0);
   sc::PeriodEntry out[Allocator::kMaxMotors];
   MidiEvent ev;
+  uint64_t next_tick_us = 0;
   while (!stop_engine_.load(std::memory_order_acquire)) {
-    if (!midi_queue_.wait_dequeue_timed(ev, std::chrono::milliseconds(20))) continue;
-    RtScope rt;
-    do {
-      const size_t n = allocator_.handle(ev, out, Allocator::kMaxMotors);
-      const uint64_t now = monotonic_us();
-      engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
-      route(out, n, ev.timestamp_us);
-      events_.fetch_add(1, std::memory_order_relaxed);
-    } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
+    const bool vibrating = allocator_.vibrating();
+    const uint64_t start = monotonic_us();
+    const uint64_t wait_us = !vibrating ? 20000 : next_tick_us > start ? next_tick_us - start : 0;
+    if (midi_queue_.wait_dequeue_timed(ev, std::chrono::microseconds(wait_us))) {
+      RtScope rt;
+      do {
+        const size_t n = allocator_.handle(ev, out, Allocator::kMaxMotors);
+        const uint64_t now = monotonic_us();
+        engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
+        route(out, n, ev.timestamp_us);
+        events_.fetch_add(1, std::memory_order_relaxed);
+      } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
+    }
+    const uint64_t now = monotonic_us();
+    if (allocator_.vibrating() && now >= next_tick_us) {  // the vibrato moves on
+      RtScope rt;
+      route(out, allocator_.tick(now, out, Allocator::kMaxMotors), now);
+      next_tick_us = now + kVibratoTickUs;
+    }
   }
   RtScope rt;
   const size_t n = allocator_.panic(out, Allocator::kMaxMotors);

@@ -1,0 +1,114 @@
+// test_expression.cpp: expression on stage, end to end: a JACK keyboard's mod wheel through
+// `stepchoir live` into the real firmware on the virtual board sings vibrato at the configured
+// rate and depth, measured from the trace's STEP edges, and the note is back on its pitch once
+// the wheel falls.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "board/child_process.h"
+#include "core/midi_event.h"
+#include "e2e_util.h"
+#include "jack_rig.h"
+#include "trace.h"
+#include "vboard_process.h"
+
+namespace tr = sc::trace;
+
+namespace {
+
+// The motor's pitch at each STEP edge (cents against a4 = 440 Hz, one step a cycle) from the
+// interval since the edge before, with the edge's real time (s).
+std::vector<std::pair<double, double>> cents_by_edge(const tr::Trace &t, size_t motor) {
+  std::vector<std::pair<double, double>> out;
+  const auto &s = t.motor.at(motor).steps;
+  for (size_t i = 1; i < s.size(); ++i) {
+    const double dt = t.real_seconds(s[i].rise_cycle) - t.real_seconds(s[i - 1].rise_cycle);
+    if (dt > 0.02) continue;  // a silence between notes
+    out.push_back({t.real_seconds(s[i].rise_cycle), 1200.0 * std::log2(1.0 / dt / 440.0)});
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note is back on pitch when it falls",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("vibrato.csv"), config_path = e2e::scratch("vibrato.toml");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+                             << "[vibrato]\nrate_hz = 5.5\ndepth_cents = 50.0\nfade_ms = 150.0\n"
+                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.send(stepchoir::note_on(0, 69, 100));  // A4
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  keys.send(stepchoir::control_change(0, stepchoir::kCcModWheel, 127));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  keys.send(stepchoir::control_change(0, stepchoir::kCcModWheel, 0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  keys.send(stepchoir::note_off(0, 69));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace t = tr::read_trace(trace_path);
+  size_t motor = 0;
+  for (size_t m = 0; m < t.motor.size(); ++m)
+    if (t.motor[m].steps.size() > t.motor[motor].steps.size()) motor = m;
+  const auto cents = cents_by_edge(t, motor);
+  REQUIRE(cents.size() > 1000);
+  const double start = cents.front().first;
+  // Before the wheel: A4 itself. With the wheel up (after its fade-in): the sine. After it falls:
+  // A4 again.
+  std::vector<std::pair<double, double>> before, during, after;
+  for (const auto &[time, c] : cents) {
+    const double s = time - start;
+    if (s > 0.05 && s < 0.35) before.push_back({s, c});
+    if (s > 0.8 && s < 2.8) during.push_back({s, c});
+    if (s > 3.05 && s < 3.3) after.push_back({s, c});
+  }
+  REQUIRE(!before.empty());
+  REQUIRE(during.size() > 500);
+  REQUIRE(!after.empty());
+  // One edge's interval jitters by a microsecond or so (about 0.8 cent at A4): the mean of each
+  // stretch.
+  auto mean_cents = [](const std::vector<std::pair<double, double>> &v) {
+    double sum = 0;
+    for (const auto &x : v) sum += x.second;
+    return sum / static_cast<double>(v.size());
+  };
+  INFO("before the wheel " << mean_cents(before) << " cents, after it " << mean_cents(after) << " cents");
+  CHECK(std::fabs(mean_cents(before)) < 0.1);
+  CHECK(std::fabs(mean_cents(after)) < 0.1);
+  double lo = 1e9, hi = -1e9;
+  for (const auto &d : during) lo = std::min(lo, d.second), hi = std::max(hi, d.second);
+  // Rate: upward zero crossings, first to last, each after the pitch was 10 cents below (an
+  // edge's jitter near zero must not count twice).
+  std::vector<double> ups;
+  bool armed = false;
+  for (const auto &d : during) {
+    if (d.second < -10) armed = true;
+    if (armed && d.second >= 0) ups.push_back(d.first), armed = false;
+  }
+  REQUIRE(ups.size() >= 5);
+  const double rate_hz = static_cast<double>(ups.size() - 1) / (ups.back() - ups.front());
+  const double depth = (hi - lo) / 2;
+  std::printf("vibrato: depth %.1f cents (peak %+.1f, trough %+.1f), rate %.3f Hz over %zu cycles\n", depth, hi, lo,
+              rate_hz, ups.size() - 1);
+  CHECK(std::fabs(depth / 50.0 - 1) < 0.1);
+  CHECK(std::fabs(rate_hz / 5.5 - 1) < 0.1);
+}
