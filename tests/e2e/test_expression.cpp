@@ -1,7 +1,7 @@
-// test_expression.cpp: expression on stage, end to end: a JACK keyboard's mod wheel through
-// `stepchoir live` into the real firmware on the virtual board sings vibrato at the configured
-// rate and depth, measured from the trace's STEP edges, and the note is back on its pitch once
-// the wheel falls.
+// test_expression.cpp: expression on stage, end to end: a JACK keyboard's mod wheel and glide through
+// `stepchoir live` into the real firmware on the virtual board: vibrato at the configured rate and
+// depth, and a glide for its set time, measured from the trace's STEP edges; each note then
+// plays its exact pitch.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -38,6 +38,18 @@ std::vector<std::pair<double, double>> cents_by_edge(const tr::Trace &t, size_t 
   return out;
 }
 
+// Ends `stepchoir live` (SIGTERM) and the board, and reads the board's trace; the motor that
+// stepped most is the one that played.
+tr::Trace finish(stepchoir::ChildProcess &live, VboardProcess &vb, const std::string &trace_path, size_t *motor) {
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+  tr::Trace t = tr::read_trace(trace_path);
+  *motor = 0;
+  for (size_t m = 0; m < t.motor.size(); ++m)
+    if (t.motor[m].steps.size() > t.motor[*motor].steps.size()) *motor = m;
+  return t;
+}
+
 }  // namespace
 
 TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note is back on pitch when it falls",
@@ -62,13 +74,8 @@ TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   keys.send(stepchoir::note_off(0, 69));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  CHECK(live.signal_and_wait(SIGTERM) == 0);
-  REQUIRE(vb.stop() == 0);
-
-  const tr::Trace t = tr::read_trace(trace_path);
   size_t motor = 0;
-  for (size_t m = 0; m < t.motor.size(); ++m)
-    if (t.motor[m].steps.size() > t.motor[motor].steps.size()) motor = m;
+  const tr::Trace t = finish(live, vb, trace_path, &motor);
   const auto cents = cents_by_edge(t, motor);
   REQUIRE(cents.size() > 1000);
   const double start = cents.front().first;
@@ -111,4 +118,55 @@ TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note
               rate_hz, ups.size() - 1);
   CHECK(std::fabs(depth / 50.0 - 1) < 0.1);
   CHECK(std::fabs(rate_hz / 5.5 - 1) < 0.1);
+}
+
+TEST_CASE("live: glide (CC65, CC5) slides a motor into its next note for the set time and lands on pitch",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("glide.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  stepchoir::ChildProcess live(
+      {STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", vb.pty(), "--quiet"}, true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.send(stepchoir::control_change(0, stepchoir::kCcPortamento, 127));
+  keys.send(stepchoir::control_change(0, stepchoir::kCcPortamentoTime, 20));  // 320 ms
+  keys.send(stepchoir::note_on(0, 57, 100));  // A3
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.send(stepchoir::note_off(0, 57));
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  keys.send(stepchoir::note_on(0, 69, 100));  // A4: the same motor slides up an octave
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  keys.send(stepchoir::note_off(0, 69));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  size_t motor = 0;
+  const tr::Trace t = finish(live, vb, trace_path, &motor);
+  const auto cents = cents_by_edge(t, motor);  // against A4
+  // The second note: the edges after the silence between the two.
+  const auto &s = t.motor[motor].steps;
+  double second_start = -1;
+  for (size_t i = 1; i < s.size(); ++i)
+    if (t.real_seconds(s[i].rise_cycle) - t.real_seconds(s[i - 1].rise_cycle) > 0.02)
+      second_start = t.real_seconds(s[i].rise_cycle);
+  REQUIRE(second_start > 0);
+  double landed = -1;
+  std::vector<double> last;
+  for (const auto &[time, c] : cents) {
+    if (time < second_start) continue;
+    if (landed < 0 && std::fabs(c) < 5.0) landed = time;
+    if (time > second_start + 0.5) last.push_back(c);
+  }
+  REQUIRE(landed > 0);
+  REQUIRE(!last.empty());
+  double mean = 0;
+  for (double c : last) mean += c;
+  mean /= static_cast<double>(last.size());
+  const double first = std::upper_bound(cents.begin(), cents.end(), std::make_pair(second_start, 1e9))->second;
+  std::printf("glide: starts %+.1f cents from A4, within 5 cents after %.1f ms, then %+.3f cents\n", first,
+              (landed - second_start) * 1e3, mean);
+  CHECK(std::fabs(first + 1200) < 40);  // from A3, one tick's step at most
+  CHECK(std::fabs((landed - second_start) / 0.320 - 1) < 0.1);
+  CHECK(std::fabs(mean) < 0.1);  // on pitch
 }

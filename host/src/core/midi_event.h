@@ -26,9 +26,11 @@ constexpr uint8_t kMidiPitchBend = 0xE0;
 // Controller numbers (data1 of a control change) the engine understands.
 constexpr uint8_t kCcBankSelectMsb = 0;
 constexpr uint8_t kCcModWheel = 1;
+constexpr uint8_t kCcPortamentoTime = 5;
 constexpr uint8_t kCcDataEntryMsb = 6;
 constexpr uint8_t kCcDataEntryLsb = 38;
 constexpr uint8_t kCcSustain = 64;
+constexpr uint8_t kCcPortamento = 65;
 constexpr uint8_t kCcNrpnLsb = 98;
 constexpr uint8_t kCcNrpnMsb = 99;
 constexpr uint8_t kCcRpnLsb = 100;

@@ -45,6 +45,9 @@ bool Allocator::configure(const AllocatorConfig &config) noexcept {
 // Forgets every note and resets every channel; derives each motor's owning channel.
 void Allocator::reset_state() noexcept {
   voices_.fill(Voice{});
+  glide_.fill(Glide{});
+  last_pitch_.fill(0.0);
+  silent_us_.fill(0);
   channels_.fill(Channel{});
   channels_[kGmDrumChannel].percussion = true;
   for (size_t m = 0; m < kMaxMotors; ++m) {
@@ -90,15 +93,32 @@ uint8_t Allocator::vibrato_amount(uint8_t ch) const noexcept {
 
 bool Allocator::vibrating() const noexcept {
   for (size_t m = 0; m < config_.motor_count; ++m)
-    if (voices_[m].active && vibrato_amount(voices_[m].channel) > 0) return true;
+    if (voices_[m].active && (vibrato_amount(voices_[m].channel) > 0 || glide_[m].duration_us > 0)) return true;
   return false;
 }
 
 size_t Allocator::tick(uint64_t now_us, sc::PeriodEntry *out, size_t max_out) noexcept {
   if (now_us > now_us_) now_us_ = now_us;
-  for (size_t m = 0; m < config_.motor_count; ++m)
-    if (voices_[m].active && vibrato_amount(voices_[m].channel) > 0) retune(m);
+  for (size_t m = 0; m < config_.motor_count; ++m) {
+    if (!voices_[m].active) continue;
+    const bool gliding = glide_[m].duration_us > 0;
+    if (gliding && !glide_[m].active(now_us_)) glide_[m] = Glide{};  // landed: this retune is exact
+    if (gliding || vibrato_amount(voices_[m].channel) > 0) retune(m);
+  }
   return flush(out, max_out);
+}
+
+// Called from: poly_note_on and mono_update, when motor m takes a new note of channel ch. The
+// motor slides from what it played if the channel glides and (always, in mono) the motor sounds
+// or fell silent within kGlideAfterSilenceUs.
+void Allocator::start_glide(size_t m, uint8_t ch, bool always) noexcept {
+  const Channel &c = channels_[ch];
+  const bool recent = always || (silent_us_[m] == 0 ? last_pitch_[m] > 0 : now_us_ - silent_us_[m] <= kGlideAfterSilenceUs);
+  if (!c.glide || c.glide_time == 0 || !recent || last_pitch_[m] <= 0) {
+    glide_[m] = Glide{};
+    return;
+  }
+  glide_[m] = Glide{last_pitch_[m], now_us_, c.glide_time * kGlideUsPerStep};
 }
 
 size_t Allocator::flush(sc::PeriodEntry *out, size_t max_out) noexcept {
@@ -208,18 +228,24 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note) noexcept {
       return;
     }
   }
-  // A free motor that can play it, fewest octaves of folding first, then lowest index.
+  // A free motor that can play it, fewest octaves of folding first, then lowest index; a
+  // gliding channel first takes the motor that fell silent last, within kGlideAfterSilenceUs.
   size_t best = kNone;
   int best_octaves = 0;
   uint8_t best_played = 0;
+  uint64_t best_silent = 0;
   for (size_t m = 0; m < n; ++m) {
     uint8_t played;
     int octaves;
     if (voices_[m].active || !resolve(m, note, &played, &octaves)) continue;
-    if (best == kNone || octaves < best_octaves) {
+    const uint64_t silent = channels_[ch].glide && silent_us_[m] && now_us_ - silent_us_[m] <= kGlideAfterSilenceUs
+                                ? silent_us_[m]
+                                : 0;
+    if (best == kNone || silent > best_silent || (silent == best_silent && octaves < best_octaves)) {
       best = m;
       best_octaves = octaves;
       best_played = played;
+      best_silent = silent;
     }
   }
   if (best == kNone) {
@@ -229,6 +255,7 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note) noexcept {
     resolve(best, note, &best_played, &octaves);
   }
   voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_, now_us_};
+  start_glide(best, ch, false);
   retune(best);
 }
 
@@ -289,7 +316,10 @@ void Allocator::mono_update(uint8_t ch) noexcept {
     }
     const uint8_t note = c.keys[c.depth - 1];
     Voice &v = voices_[m];
-    if (!v.active || v.note != note) v.started = ++sequence_;
+    if (!v.active || v.note != note) {
+      v.started = ++sequence_;
+      start_glide(m, ch, true);  // mono: legato or not, from the note the motor played before
+    }
     if (!v.active) v.onset_us = now_us_;  // a legato change keeps the vibrato's phase
     v.active = true;
     v.channel = ch;
@@ -326,7 +356,9 @@ bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *oct
 }
 
 void Allocator::release(size_t m) noexcept {
+  if (voices_[m].active) silent_us_[m] = now_us_ ? now_us_ : 1;
   voices_[m] = Voice{};
+  glide_[m] = Glide{};
   period_[m] = sc::kPeriodSilent;
 }
 
@@ -338,8 +370,10 @@ void Allocator::retune(size_t m) noexcept {
   }
   const MotorConfig &mc = config_.motors[m];
   const uint64_t age_us = now_us_ > v.onset_us ? now_us_ - v.onset_us : 0;
-  double pitch = v.played + bend_semitones(v.channel) + mc.tuning_cents / 100.0 +
-                 vibrato_cents(config_.vibrato, vibrato_amount(v.channel), age_us) / 100.0;
+  last_pitch_[m] = v.played;
+  silent_us_[m] = 0;
+  double pitch = v.played + glide_[m].offset(v.played, now_us_) + bend_semitones(v.channel) +
+                 mc.tuning_cents / 100.0 + vibrato_cents(config_.vibrato, vibrato_amount(v.channel), age_us) / 100.0;
   // A bend or tuning may push the note past what a board plays (sc::kPeriodQ8Min and Max):
   // fold it by octaves, as the range folding does, rather than have the board refuse the frame.
   uint32_t period = hz_to_period_q8(note_hz(pitch, config_.a4_hz), mc.f_cpu_hz);
@@ -367,6 +401,8 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
       c.mod = value;
       retune_channel(ch);
       break;
+    case kCcPortamentoTime: c.glide_time = value; break;
+    case kCcPortamento: c.glide = value >= 64; break;
     case kCcBankSelectMsb: c.bank = value; break;
     case kCcRpnMsb: c.rpn_msb = value; break;
     case kCcRpnLsb: c.rpn_lsb = value; break;
@@ -389,6 +425,7 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
       c.range_cents = 0;
       c.rpn_msb = c.rpn_lsb = 127;
       c.mod = c.pressure = 0;
+      c.glide = false;
       retune_channel(ch);
       break;
     case kCcAllNotesOff:

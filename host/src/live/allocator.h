@@ -34,8 +34,8 @@
 //
 // MIDI handled, per channel: note on/off (velocity 0 = off), sustain pedal (CC64), pitch bend
 // with a per-channel range (RPN 0 through CC101/100 + CC6/38), vibrato on the mod wheel (CC1)
-// and, when configured, channel aftertouch (live/vibrato.h; tick() moves it on between
-// events), all-sound-off (CC120),
+// and, when configured, channel aftertouch (live/vibrato.h), glide (CC65 on, CC5 its time:
+// live/glide.h; tick() moves both on between events), all-sound-off (CC120),
 // reset-all-controllers (CC121), all-notes-off (CC123; CC124-127 imply it, as MIDI says).
 // Channel mode messages act on the channel they arrive on, as MIDI defines; panic() acts on
 // everything. Every other message is ignored.
@@ -49,6 +49,7 @@
 
 #include "core/midi_event.h"
 #include "core/pitch.h"
+#include "live/glide.h"
 #include "live/vibrato.h"
 #include "stepchoir_protocol.h"
 
@@ -142,7 +143,8 @@ class Allocator {
   // (or aftertouch) is up and writes those whose period changed, as handle() does.
   // Called from: the engine thread, every kVibratoTickUs while vibrating(). Does not allocate.
   size_t tick(uint64_t now_us, sc::PeriodEntry *out, size_t max_out) noexcept;
-  // True while a sounding motor's channel has its mod wheel (or aftertouch) up.
+  // True while a sounding motor's channel has its mod wheel (or aftertouch) up, or a motor
+  // glides: tick() has work.
   bool vibrating() const noexcept;
 
   // Writes the motors whose period changed since it was last reported, at most max_out.
@@ -191,6 +193,8 @@ class Allocator {
     uint8_t bank = 0;                      // bank select MSB, taken at the next program change
     bool percussion = false;               // a drum kit: its notes are hits, not pitches
     uint8_t mod = 0, pressure = 0;         // mod wheel (CC1) and channel aftertouch
+    bool glide = false;                    // portamento on (CC65)
+    uint8_t glide_time = 0;                // CC5: kGlideUsPerStep a step
     // kMono/kChannel note memory: keys in press order, most recent last, no duplicates;
     // key_up marks keys released while the pedal was down (they still count).
     std::array<uint8_t, 128> keys{};
@@ -226,6 +230,10 @@ class Allocator {
   std::array<Channel, 16> channels_{};
   uint64_t sequence_ = 0;
   uint64_t now_us_ = 0;  // the time of the event or tick being applied (vibrato's clock)
+  std::array<Glide, kMaxMotors> glide_{};          // each motor's slide into its note
+  std::array<double, kMaxMotors> last_pitch_{};    // the note (semitones) each motor played last
+  std::array<uint64_t, kMaxMotors> silent_us_{};   // when it fell silent (0: it sounds or never did)
+  void start_glide(size_t m, uint8_t ch, bool always) noexcept;  // from last_pitch_[m], if the channel glides
   uint8_t vibrato_amount(uint8_t ch) const noexcept;  // the controller that sets its depth
 };
 
