@@ -36,6 +36,9 @@ class VboardProcess {
   int wait() { return child_.wait(); }
   // True while the process runs.
   bool running() { return child_.running(); }
+  // Its process id (a test may raise its scheduling priority: a real board never waits for the
+  // machine's other work).
+  pid_t pid() { return child_.pid(); }
   const std::string &pty() const { return pty_; }
 
  private:

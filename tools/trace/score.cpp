@@ -205,13 +205,22 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
 }
 
 
-long pacing_slipped_us(const Trace &t) {
+namespace {
+
+// A number from the trace's summary ("key=N"), -1 when absent.
+long summary_value(const Trace &t, const std::string &key) {
   for (const std::string &line : t.summary_lines) {
-    const size_t at = line.find("pacing_slipped_us=");
-    if (at != std::string::npos) return std::atol(line.c_str() + at + 18);
+    const size_t at = line.find(" " + key + "=");
+    if (at != std::string::npos) return std::atol(line.c_str() + at + key.size() + 2);
   }
   return -1;
 }
+
+}  // namespace
+
+long pacing_slipped_us(const Trace &t) { return summary_value(t, "pacing_slipped_us"); }
+
+long pacing_lag_max_us(const Trace &t) { return summary_value(t, "pacing_lag_max_us"); }
 
 }  // namespace trace
 }  // namespace sc

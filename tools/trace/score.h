@@ -52,6 +52,10 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
 // runs slow against the host's for a moment, as no crystal does. From the trace's summary; -1
 // when it has none. Called from: the player's e2e tests, its bench.
 long pacing_slipped_us(const Trace &t);
+// How far (us) the virtual board fell behind real time at worst, given up or caught up; -1 when
+// the trace has no summary. A lag distorts what the host measured of the board's clock meanwhile.
+// Called from: end-to-end tests that judge several boards against one time line.
+long pacing_lag_max_us(const Trace &t);
 
 }  // namespace trace
 }  // namespace sc
