@@ -219,3 +219,12 @@ TEST_CASE("players: several boards take one start once every one is synced, and 
   lost.leave(1);  // its board never answered
   CHECK(lost.ready(0, 600) == 500);
 }
+
+TEST_CASE("clock: the newest reply's board time is a time the board surely reached, unwrapped", "[player]") {
+  ClockSync sync(16e6);
+  CHECK(sync.newest_ticks() == 0);  // no reply yet
+  sync.add(1000000, 1000100, 4294967000u);
+  sync.add(1001000, 1001100, 4294967000u + 16000u);  // the 32-bit counter wrapped
+  CHECK(sync.newest_ticks() == Approx(4294967000.0 + 16000.0));
+  CHECK(sync.newest_ticks() > 4294967296.0);
+}

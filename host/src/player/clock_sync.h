@@ -74,9 +74,9 @@ class ClockSync {
   // The board's unwrapped tick count at a host time (us). Called from: the player.
   double ticks_at(double host_us) const { return offset_ticks_ + (host_us - origin_us_) * rate_ / 1e6; }
   // The board's unwrapped tick count in its newest reply: a time the board has surely reached
-  // (the line's ticks_at may run ahead of a board that lags). Called from: the player, when
-  // ready().
-  double newest_ticks() const { return samples_.back().ticks; }
+  // (the line's ticks_at may run ahead of a board that lags); before any reply, the line's
+  // origin. Called from: the player.
+  double newest_ticks() const { return samples_.empty() ? offset_ticks_ : samples_.back().ticks; }
   // The host time (us) at which the board's unwrapped tick count reaches ticks.
   double host_us_at(double ticks) const { return origin_us_ + (ticks - offset_ticks_) * 1e6 / rate_; }
   // True once the rate is fitted (samples spanning min_rate_span_s).
