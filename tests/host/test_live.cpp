@@ -10,6 +10,7 @@
 #include <csignal>
 #include <condition_variable>
 #include <mutex>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -477,6 +478,22 @@ TEST_CASE("live: the writer keeps to the link budget when events come faster", "
     const auto p = periods_of(entries_of(link.frames()), m);
     if (!p.empty()) CHECK(p.back() == 0);
   }
+}
+
+TEST_CASE("live: the mod wheel's vibrato reaches the link between events, and is no latency sample", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(control_change(0, kCcModWheel, 127, monotonic_us())));
+  // With no further event the engine keeps moving the pitch: many different periods on motor 0.
+  REQUIRE(eventually([&] {
+    const auto m0 = periods_of(entries_of(link.frames()), 0);
+    return std::set<uint32_t>(m0.begin(), m0.end()).size() >= 10;
+  }));
+  s.stop();
+  INFO("latency samples: " << s.latency().count());
+  CHECK(s.latency().count() <= 3);  // the note-on, the wheel, stop()'s silence: no tick
 }
 
 TEST_CASE("live: every motor's state is sent again periodically", "[live]") {

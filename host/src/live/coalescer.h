@@ -14,7 +14,7 @@ namespace stepchoir {
 struct MotorUpdate {
   uint8_t motor;        // the board's own motor index
   uint32_t period_q8;   // ticks q8, 0 = silent
-  uint64_t event_us;    // monotonic_us() of the MIDI event
+  uint64_t event_us;    // monotonic_us() of the MIDI event; 0: none (vibrato, glide): no latency sample
 };
 
 // The latest state per motor of one board, while the link is busy. Pure; owned by the holder of

@@ -112,9 +112,10 @@ void LiveSession::engine_loop() {
       } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
     }
     const uint64_t now = monotonic_us();
-    if (allocator_.vibrating() && now >= next_tick_us) {  // the vibrato moves on
+    if (allocator_.vibrating() && now >= next_tick_us) {  // the vibrato and glides move on
       RtScope rt;
-      route(out, allocator_.tick(now, out, Allocator::kMaxMotors), now);
+      // event time 0: no key caused these updates, so they stay out of the latency figures
+      route(out, allocator_.tick(now, out, Allocator::kMaxMotors), 0);
       next_tick_us = now + kVibratoTickUs;
     }
   }
@@ -124,6 +125,7 @@ void LiveSession::engine_loop() {
 }
 
 // Called from: the engine thread. Posts each entry to its board and publishes the motor's note.
+// event_us: the MIDI event's time, or 0 for updates no key caused (kept out of the latency).
 void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us) {
   for (size_t i = 0; i < n; ++i) {
     const size_t m = entries[i].motor;
