@@ -77,6 +77,13 @@ TEST_CASE("WAV: length follows real time - header is canonical 16-bit mono", "[r
   CHECK(b.substr(36, 4) == "data");
   CHECK(le32(b, 40) == 2 * expected);
   CHECK(int16_t(le16(b, 44 + 2 * 5000)) == samples[5000]);
+  int read_rate = 0;
+  CHECK(read_wav(path, &read_rate) == samples);  // read back as written
+  CHECK(read_rate == rate);
+  { std::ofstream(path, std::ios::binary) << b.substr(0, 40); }
+  CHECK_THROWS_WITH(read_wav(path, &read_rate), Catch::Contains("not a canonical WAV file"));
+  { std::ofstream(path, std::ios::binary) << b.substr(0, 1000); }
+  CHECK_THROWS_WITH(read_wav(path, &read_rate), Catch::Contains("data chunk of"));
 }
 
 TEST_CASE("WAV: peak at -1 dBFS - silent before the first step - rings at the step rate", "[render]") {

@@ -39,6 +39,11 @@ std::vector<int16_t> render_audio(const Trace& trace, const AudioOptions& option
 // Writes 16-bit mono PCM samples as a WAV file. Throws std::runtime_error on I/O failure.
 void write_wav(const std::string& path, const std::vector<int16_t>& samples, int sample_rate_hz);
 
+// Reads a WAV file as write_wav writes it (canonical header, 16-bit mono PCM); sets *sample_rate_hz.
+// Called by the tests and benchmarks that listen to a render. Throws std::runtime_error naming
+// the file and what differs.
+std::vector<int16_t> read_wav(const std::string& path, int* sample_rate_hz);
+
 // An 8-bit RGB picture, rows top to bottom.
 struct Image {
   int width_px = 0;

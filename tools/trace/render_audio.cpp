@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 namespace sc {
@@ -97,6 +98,13 @@ void put_u32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out += char((v >> (8 * i)) & 0xff);
 }
 
+// A little-endian 16- or 32-bit value at offset.
+uint32_t get_le(const std::string& in, size_t offset, int bytes) {
+  uint32_t v = 0;
+  for (int i = bytes - 1; i >= 0; --i) v = (v << 8) | uint8_t(in[offset + size_t(i)]);
+  return v;
+}
+
 }  // namespace
 
 void write_wav(const std::string& path, const std::vector<int16_t>& samples, int sample_rate_hz) {
@@ -124,6 +132,26 @@ void write_wav(const std::string& path, const std::vector<int16_t>& samples, int
   file.write(out.data(), std::streamsize(out.size()));
   file.close();
   if (!file) throw std::runtime_error(path + ": write failed");
+}
+
+std::vector<int16_t> read_wav(const std::string& path, int* sample_rate_hz) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
+  const std::string in((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (in.size() < kWavHeaderBytes || in.compare(0, 4, "RIFF") != 0 || in.compare(8, 4, "WAVE") != 0 ||
+      in.compare(12, 4, "fmt ") != 0 || in.compare(36, 4, "data") != 0)
+    throw std::runtime_error(path + ": not a canonical WAV file (RIFF, WAVE, fmt, data at bytes 0, 8, 12, 36)");
+  if (get_le(in, 20, 2) != kWavFormatPcm || get_le(in, 22, 2) != kWavChannels ||
+      get_le(in, 34, 2) != kWavBitsPerSample)
+    throw std::runtime_error(path + ": expected 16-bit mono PCM (bytes 20-35)");
+  const uint32_t data_bytes = get_le(in, 40, 4);
+  if (data_bytes % kWavBytesPerSample != 0 || data_bytes > in.size() - kWavHeaderBytes)
+    throw std::runtime_error(path + ": data chunk of " + std::to_string(data_bytes) + " bytes, file has " +
+                             std::to_string(in.size() - kWavHeaderBytes));
+  if (sample_rate_hz) *sample_rate_hz = int(get_le(in, 24, 4));
+  std::vector<int16_t> samples(data_bytes / kWavBytesPerSample);
+  for (size_t k = 0; k < samples.size(); ++k) samples[k] = int16_t(get_le(in, kWavHeaderBytes + 2 * k, 2));
+  return samples;
 }
 
 }  // namespace trace
