@@ -450,7 +450,8 @@ TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors r
                     true);
   std::string line;
   REQUIRE(play.read_line(&line, 20000));  // "play: no --port: ..."
-  std::this_thread::sleep_for(std::chrono::milliseconds(2300));  // sync, lead, a second of song
+  // The clock sync (up to 2 s behind a USB bridge), the lead, a second of song.
+  std::this_thread::sleep_for(std::chrono::milliseconds(3300));
   kill(play.pid(), SIGUSR1);                                      // pause
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(play.pid(), SIGUSR1);                                      // resume

@@ -228,3 +228,46 @@ TEST_CASE("clock: the newest reply's board time is a time the board surely reach
   CHECK(sync.newest_ticks() == Approx(4294967000.0 + 16000.0));
   CHECK(sync.newest_ticks() > 4294967296.0);
 }
+
+TEST_CASE("clock: a prior rate (the same crystal measured before) holds from the first sample, weighed as samples come",
+          "[player]") {
+  const double ppm = 3000;
+  SECTION("a right prior: the rate is right before a second of samples, and stays right") {
+    ClockSync sync(16e6);
+    sync.set_prior(16e6 * (1 + (ppm + 8) / 1e6), 10);  // remembered 8 ppm off
+    CHECK(sync.has_rate());
+    CHECK(sync.ppm() == Approx(ppm + 8));
+    BridgeModel link{ppm};
+    double worst = 0;
+    for (int i = 0; i < 1000; ++i) {
+      REQUIRE(link.round_trip(sync, 1e6 + i * 20000.0 + (i % 7) * 131.0));
+      worst = std::max(worst, std::fabs(cents(sync.ppm() - ppm)));
+      CHECK(sync.rate_sigma_ppm() <= 10);
+    }
+    CHECK(sync.has_prior());
+    CHECK(worst < 0.1);  // 58 ppm: from the first sample on
+  }
+  SECTION("a wrong prior is dropped once the samples disagree, and the fit's own rate takes over") {
+    ClockSync sync(16e6);
+    sync.set_prior(16e6 * (1 - 2000 / 1e6), 10);  // another board's crystal
+    BridgeModel link{ppm};
+    for (int i = 0; i < 1000; ++i) REQUIRE(link.round_trip(sync, 1e6 + i * 20000.0 + (i % 7) * 131.0));
+    CHECK_FALSE(sync.has_prior());
+    CHECK(std::fabs(cents(sync.ppm() - ppm)) < 0.1);
+  }
+  SECTION("a reset (the board restarted) keeps the prior; without one the rate is nominal until fitted") {
+    ClockSync sync(16e6);
+    BridgeModel link{ppm};
+    for (int i = 0; i < 300; ++i) REQUIRE(link.round_trip(sync, 1e6 + i * 20000.0));
+    REQUIRE(sync.has_rate());
+    sync.set_prior(sync.ticks_per_s(), sync.rate_sigma_ppm());
+    sync.reset();
+    CHECK(sync.samples() == 0);
+    CHECK(sync.has_rate());
+    CHECK(std::fabs(sync.ppm() - ppm) < 200);
+    sync.clear_prior();
+    sync.reset();
+    CHECK_FALSE(sync.has_rate());
+    CHECK(sync.ppm() == 0);
+  }
+}

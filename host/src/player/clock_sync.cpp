@@ -53,11 +53,18 @@ bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
 
 void ClockSync::reset() {
   samples_.clear();
-  rate_ = nominal_;
-  has_rate_ = false;
+  rate_ = has_prior() ? prior_rate_ : nominal_;
+  has_rate_ = has_prior();
   origin_us_ = offset_ticks_ = residual_us_ = 0;
-  rate_sigma_ppm_ = 1e6;
+  rate_sigma_ppm_ = has_prior() ? prior_sigma_ppm_ : 1e6;
   outliers_ = off_line_ = 0;
+}
+
+void ClockSync::set_prior(double ticks_per_s, double sigma_ppm) {
+  if (!(ticks_per_s > 0) || !(sigma_ppm >= 0)) return;
+  prior_rate_ = ticks_per_s;
+  prior_sigma_ppm_ = std::max(sigma_ppm, kPriorMinSigmaPpm);
+  if (samples_.empty()) reset();
 }
 
 double ClockSync::min_rtt_us() const {
@@ -158,9 +165,12 @@ void ClockSync::fit() {
     if (trimmed.n == 0) break;
     l = trimmed;
   }
-  if (l.n >= 3 && l.span_us >= min_rate_span_s_ * 1e6 && l.slope > 0) {
+  const bool fitted = l.n >= 3 && l.span_us >= min_rate_span_s_ * 1e6 && l.slope > 0;
+  if (fitted) {
     rate_ = l.slope * 1e6;
     has_rate_ = true;
+  } else if (has_prior()) {
+    rate_ = prior_rate_;
   }
   origin_us_ = l.mean_h;
   offset_ticks_ = l.mean_t;
@@ -172,6 +182,21 @@ void ClockSync::fit() {
   }
   residual_us_ = std::sqrt(sq / l.n);
   rate_sigma_ppm_ = has_rate_ && l.n >= 3 && l.sxx > 0 ? residual_us_ / std::sqrt(l.sxx) * 1e6 : 1e6;
+  if (!has_prior()) return;
+  if (!fitted) {
+    rate_sigma_ppm_ = prior_sigma_ppm_;
+    return;
+  }
+  // Weigh the samples' rate against the prior; the line keeps its centre.
+  const double fit_sigma = std::max(rate_sigma_ppm_, kPriorSpanErrors * residual_us_ / l.span_us * 1e6);
+  const double apart_ppm = std::fabs(rate_ - prior_rate_) / nominal_ * 1e6;
+  if (apart_ppm > kPriorRejectSigmas * std::hypot(fit_sigma, prior_sigma_ppm_)) {
+    clear_prior();
+    return;
+  }
+  const double wf = 1 / (fit_sigma * fit_sigma), wp = 1 / (prior_sigma_ppm_ * prior_sigma_ppm_);
+  rate_ = (wf * rate_ + wp * prior_rate_) / (wf + wp);
+  rate_sigma_ppm_ = 1 / std::sqrt(wf + wp);
 }
 
 }  // namespace stepchoir

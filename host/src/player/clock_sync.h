@@ -36,6 +36,9 @@ class ClockSync {
   static constexpr double kTrimMinUs = 300;       // the fit keeps points this close to its line
   static constexpr double kStepMinUs = 20000;     // a sample this far off the line is off it
   static constexpr int kStepSamples = 5;          // off the line this often in a row: the clock stepped
+  static constexpr double kPriorSpanErrors = 2;   // a fit's rate error: at least this many residuals over its span
+  static constexpr double kPriorRejectSigmas = 3; // a prior this far from the samples' rate is dropped
+  static constexpr double kPriorMinSigmaPpm = 10; // a prior is never surer than this (a crystal drifts with heat)
 
   // nominal_ticks_per_s: the board's F_CPU (its tick rate if its crystal were exact).
   explicit ClockSync(double nominal_ticks_per_s) : nominal_(nominal_ticks_per_s), rate_(nominal_ticks_per_s) {}
@@ -45,8 +48,20 @@ class ClockSync {
   // kResetJumpS twice in a row: its clock restarted (a reset), the caller resets.
   bool add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks);
 
-  // Forgets every sample (a new board). Called from: the player.
+  // Forgets every sample (the board restarted, or a new board); keeps the prior. Called from:
+  // the player.
   void reset();
+  // A rate known before the samples: the same crystal measured before (the board came back
+  // after a reset, or the host remembers the board: player/board_memory.h). ticks_per_s and
+  // its standard error in ppm. Until the samples span min_rate_span_s the fit takes it as its
+  // rate; after, it weighs the two by their errors, the samples' error taken as at least
+  // kPriorSpanErrors residuals over their span (a USB bridge's frames bias a short fit more
+  // than its scatter shows), and drops the prior for good when they disagree by more than
+  // kPriorRejectSigmas standard errors. Called from: the player, before the first sample of
+  // the board it concerns.
+  void set_prior(double ticks_per_s, double sigma_ppm);
+  void clear_prior() { prior_sigma_ppm_ = 0; }
+  bool has_prior() const { return prior_sigma_ppm_ > 0; }
   // Keeps the last `samples` only and fits a rate once they span min_rate_span_s (a board
   // simulated as fast as it runs changes speed: a short window follows it). Called from: the
   // player, before the first sample.
@@ -107,6 +122,7 @@ class ClockSync {
   double origin_us_ = 0, offset_ticks_ = 0;  // the line passes through (origin_us_, offset_ticks_)
   double residual_us_ = 0;
   double rate_sigma_ppm_ = 1e6;
+  double prior_rate_ = 0, prior_sigma_ppm_ = 0;  // set_prior; sigma 0: none
   std::deque<Sample> samples_;
   int outliers_ = 0;
   int off_line_ = 0;  // samples off the line in a row: + ahead of it, - behind

@@ -336,14 +336,16 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   board_lost_ = board_restarted_ = false;
   decoder_ = sc::FrameDecoder();
   send_payload(watchdog_payload(sc::kWatchdogDefaultMs));
+  // The same board back: the same crystal. The rate measured so far is the new fit's prior,
+  // so the notes after the reconnect are in tune before the new samples span a second.
+  if (sync_.has_rate()) sync_.set_prior(sync_.ticks_per_s(), sync_.rate_sigma_ppm());
   sync_.reset();
   queued_ticks_.clear();
   if (!sync_clock(0.2, false, stop)) return false;
   ++stats_.reconnects;
   const uint64_t now = monotonic_us();
   const double at_s = lost_at_s + (now - start) / 1e6 + opt_.lead_s;  // the song went on meanwhile
-  // The same board back (same capabilities): same crystal, so the rate measured so far stays
-  // until the new fit has one; the new fit sets the offset.
+  // The new fit sets the offset; its rate is the prior until its samples say more.
   anchor(at_s, now);
   return restore_at(at_s);
 }
