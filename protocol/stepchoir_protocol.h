@@ -83,12 +83,21 @@ enum MsgType : uint8_t {
   kMsgResetCounters = 0x09,  // (empty): zero the status counters
   kMsgDriver = 0x0A,      // DriverBody: one driver's SLEEP and RESET pins and its idle power-down
   kMsgDriverAct = 0x0B,   // DriverActBody: wake, sleep, disable or reset one driver now
+  kMsgIdReq = 0x0C,       // (empty) -> kMsgId
+  kMsgSetId = 0x0D,       // 8-byte board id (not kBoardIdNone, not all 0xFF) -> kMsgId
   // board -> host
   kMsgCaps = 0x41,        // CapsBody + board name (ASCII, rest of payload)
   kMsgStatus = 0x42,      // StatusHead + one StatusMotor per motor
   kMsgClock = 0x43,       // u8 seq, u32 board ticks when the request was decoded
   kMsgError = 0x44,       // u8 error code, u8 message type it concerns, u8 detail
+  kMsgId = 0x45,          // 8-byte board id, kept in EEPROM; all zero: none set yet
 };
+
+// A board's identity: 8 bytes the host chooses at random and the board keeps in its EEPROM
+// from kEepromIdAddr on, so the host knows the board again (its crystal's error) whatever port
+// it is on. An erased EEPROM (all 0xFF) reads as no id.
+static const uint8_t kBoardIdBytes = 8;
+static const uint16_t kEepromIdAddr = 0;
 
 // ---------------------------------------------------------------------------------------------
 // Error codes: one table, numbered for good. PROTOCOL.md gives each a sentence.
@@ -266,6 +275,16 @@ inline uint32_t get_u32(const uint8_t *p) {
 inline void put_u16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
 inline void put_u32(uint8_t *p, uint32_t v) {
   p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); p[2] = (uint8_t)(v >> 16); p[3] = (uint8_t)(v >> 24);
+}
+
+// A board id as its 8 bytes, little-endian (host side; the firmware copies the bytes).
+inline void put_board_id(uint8_t *p, uint64_t id) {
+  for (uint8_t i = 0; i < kBoardIdBytes; ++i) p[i] = (uint8_t)(id >> (8 * i));
+}
+inline uint64_t get_board_id(const uint8_t *p) {
+  uint64_t id = 0;
+  for (uint8_t i = kBoardIdBytes; i > 0; --i) id = (id << 8) | p[i - 1];
+  return id;
 }
 
 // One set-period entry: motor index and period (ticks q8, 0 = silent).

@@ -161,6 +161,13 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
       case kMsgDriverAct:
         rc = handle_driver_act(p, len);
         break;
+      case kMsgIdReq:
+        if (n != 0) { rc = kErrLength; break; }
+        reply_id();
+        break;
+      case kMsgSetId:
+        rc = handle_set_id(body, n);
+        break;
       case kMsgResetCounters:
         if (n != 0) { rc = kErrLength; break; }
         frames_ok_ = 0;
@@ -206,6 +213,31 @@ void Commands::poll() {
     hal::stop_all();
     fault(kErrWatchdog);
   }
+}
+
+// kMsgSetId: keeps the host's id for this board in EEPROM (written only where it changes).
+uint8_t Commands::handle_set_id(const uint8_t *body, uint8_t n) {
+  if (n != kBoardIdBytes) return kErrLength;
+  uint8_t zeros = 0, ones = 0;
+  for (uint8_t i = 0; i < kBoardIdBytes; ++i) {
+    zeros = (uint8_t)(zeros + (body[i] == 0x00));
+    ones = (uint8_t)(ones + (body[i] == 0xFF));
+  }
+  if (zeros == kBoardIdBytes || ones == kBoardIdBytes) return kErrConfig;  // "none" and erased
+  hal::eeprom_write(kEepromIdAddr, body, kBoardIdBytes);
+  reply_id();
+  return kErrNone;
+}
+
+// kMsgId: the id in EEPROM; all zero when none was set (an erased EEPROM reads all 0xFF).
+void Commands::reply_id() {
+  uint8_t buf[1 + kBoardIdBytes];
+  buf[0] = kMsgId;
+  hal::eeprom_read(kEepromIdAddr, buf + 1, kBoardIdBytes);
+  uint8_t ones = 0;
+  for (uint8_t i = 1; i <= kBoardIdBytes; ++i) ones = (uint8_t)(ones + (buf[i] == 0xFF));
+  if (ones == kBoardIdBytes) memset(buf + 1, 0, kBoardIdBytes);
+  hal::send(buf, sizeof buf);
 }
 
 void Commands::reply_caps() {

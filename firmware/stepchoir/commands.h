@@ -59,6 +59,8 @@ class Commands {
   uint8_t handle_config(const uint8_t *p, uint8_t len);
   uint8_t handle_driver(const uint8_t *p, uint8_t len);
   uint8_t handle_driver_act(const uint8_t *p, uint8_t len);
+  uint8_t handle_set_id(const uint8_t *body, uint8_t n);
+  void reply_id();
   uint8_t check_entry(const sc::PeriodEntry &e) const;
   void reply_caps();
   void reply_status();

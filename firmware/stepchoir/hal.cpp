@@ -4,6 +4,8 @@
 // Called from: the command layer (commands.cpp), in the main loop only.
 #include "hal.h"
 
+#include <avr/eeprom.h>
+
 #include "boards/board.h"
 #include "link.h"
 #include "scheduler.h"
@@ -75,5 +77,13 @@ uint16_t uart_overruns() { return link::rx_errors(); }
 void reset_uart_overruns() { link::reset_rx_errors(); }
 
 void send(const uint8_t *payload, uint8_t len) { link::send_frame(payload, len); }
+
+void eeprom_read(uint16_t addr, uint8_t *out, uint8_t len) {
+  eeprom_read_block(out, reinterpret_cast<const void *>(addr), len);
+}
+
+void eeprom_write(uint16_t addr, const uint8_t *data, uint8_t len) {
+  eeprom_update_block(data, reinterpret_cast<void *>(addr), len);
+}
 
 }  // namespace hal

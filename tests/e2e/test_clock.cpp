@@ -1,7 +1,8 @@
 // test_clock.cpp: `stepchoir play` on a virtual board whose crystal is off, end to end: the
 // host's clock fit measures the board's rate through the link (ideal, or a USB bridge's model)
 // and keeps refining it while the song plays, and every note is checked in real time in the
-// trace (the trace's cycles divided by the simulated crystal's real rate).
+// trace (the trace's cycles divided by the simulated crystal's real rate). A board met before
+// (its id in its EEPROM, its crystal in the host's memory) is in tune from its first note.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -9,10 +10,13 @@
 #include <fstream>
 #include <string>
 
+#include <sys/stat.h>
+
 #include "e2e_util.h"
 #include "play_checks.h"
 #include "smf_builder.h"
 #include "trace.h"
+#include "vboard_process.h"
 
 using namespace stepchoir;
 using namespace play_checks;
@@ -129,4 +133,64 @@ TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the che
   const sc::trace::ScoreCheck c = check_played(t, plan_for(song, static_cast<size_t>(t.motors), 1.0, {1, 2}));
   CHECK(c.max_cents == Approx(1200 * std::log2(1.005)).margin(1.0));
   CHECK(c.max_spread_cents < 0.05);
+}
+
+namespace {
+
+// The same board (one EEPROM file) plays the 12 s song twice on `link` with its crystal ppm
+// off, through `stepchoir play --port`, the host's memory in a scratch directory. The second
+// time it is a board met before: checked in real time from the trace, from the first note on,
+// against the targets (issue 23): 0.5 cent, tempo 100 ppm, onsets p99 0.5 ms.
+void check_remembered(const std::string &link, const std::string &ppm) {
+  const std::string name = "memory-" + link + ppm;
+  const std::string song = write_long_song(name + ".mid", 12);
+  const std::string eeprom = scratch(name + ".eeprom"), cache = scratch(name + "-cache");
+  std::remove(eeprom.c_str());
+  std::remove((cache + "/stepchoir/boards.toml").c_str());
+  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);  // the children read it
+  struct Restore {
+    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
+  } restore;
+  std::string id;
+  for (int run = 0; run < 2; ++run) {
+    const std::string trace_path = scratch(name + "-" + std::to_string(run) + ".csv");
+    VboardProcess vb({"--board", "uno", "--eeprom", eeprom, "--link-model", link, "--clock-ppm", ppm, "--trace",
+                      trace_path, "--quiet", "--no-measure"});
+    int status = -1;
+    const std::string out = run_stepchoir({"play", song, "--tracks", "1,2", "--port", vb.pty(), "--quiet"}, &status);
+    INFO(out);
+    REQUIRE(status == 0);
+    REQUIRE(vb.stop() == 0);
+    const size_t at = out.find(" is board ");
+    REQUIRE(at != std::string::npos);
+    if (run == 0) {
+      CHECK(out.find("met for the first time") != std::string::npos);
+      id = out.substr(at + 10, 16);
+      continue;
+    }
+    CHECK(out.substr(at + 10, 16) == id);  // the id stayed in the board's EEPROM
+    CHECK(out.find("met before: crystal ") != std::string::npos);
+    const auto t = sc::trace::read_trace(trace_path);
+    require_real_time(t);
+    const Plan plan = plan_for(song, static_cast<size_t>(t.motors), 1.0, {1, 2});
+    const sc::trace::ScoreCheck c = check_played(t, plan, 0.0);
+    print_figures(("clock, " + link + " link, crystal " + ppm + " ppm, a board met before").c_str(), c);
+    INFO(c.first_problem);
+    CHECK(c.found == c.notes);
+    CHECK(c.max_cents < 0.5);
+    CHECK(std::fabs(c.tempo_ppm) < 100.0);
+    CHECK(pct(c.onset_err_us, 0.99) < 500.0);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("clock: a board met before, crystal 0.5 % fast behind a 16U2 bridge - in tune from the first note",
+          "[play][clock][pacing]") {
+  check_remembered("16u2", "5000");
+}
+
+TEST_CASE("clock: a board met before, crystal 0.5 % slow behind an FTDI bridge - in tune from the first note",
+          "[play][clock][pacing]") {
+  check_remembered("ftdi", "-5000");
 }

@@ -52,4 +52,11 @@ void send(const uint8_t *payload, uint8_t len) {
   g_hal.sent.insert(g_hal.sent.end(), buf, buf + n);
   g_hal.replies.emplace_back(payload, payload + len);
 }
+void eeprom_read(uint16_t addr, uint8_t *out, uint8_t len) {
+  for (uint8_t i = 0; i < len; ++i) out[i] = g_hal.eeprom.at(addr + i);
+}
+void eeprom_write(uint16_t addr, const uint8_t *data, uint8_t len) {
+  ++g_hal.eeprom_writes;
+  for (uint8_t i = 0; i < len; ++i) g_hal.eeprom.at(addr + i) = data[i];
+}
 }  // namespace hal

@@ -28,6 +28,12 @@ struct FakeHal {
   uint8_t driver_rc = sc::kErrNone;             // what both return
   std::vector<uint8_t> sent;                   // encoded reply bytes
   std::vector<std::vector<uint8_t>> replies;   // reply payloads
+  std::array<uint8_t, 64> eeprom = [] {        // erased, as a new board's
+    std::array<uint8_t, 64> e{};
+    e.fill(0xFF);
+    return e;
+  }();
+  int eeprom_writes = 0;                        // hal::eeprom_write calls
   void reset() { *this = FakeHal(); }
 };
 

@@ -48,7 +48,7 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
     INFO("PROTOCOL.md:" << v.line << " " << v.kind);
     auto &c = fresh();
     feed(c, v.wire);
-    if (v.payload[0] >= 0x41 && v.payload[0] <= 0x44) {  // board-to-host messages are refused
+    if (v.payload[0] >= sc::kMsgCaps && v.payload[0] <= sc::kMsgId) {  // board-to-host messages are refused
       CHECK(c.frames_ok() == 0);
       CHECK(c.frames_bad() == 1);
       REQUIRE(g_hal.replies.size() == 1);
@@ -118,8 +118,39 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
     } else if (v.kind == "heartbeat" || v.kind == "watchdog") {
       CHECK(g_hal.calls.empty());
       CHECK(g_hal.replies.empty());
+    } else if (v.kind == "id-req") {  // a new board: erased EEPROM, no id
+      REQUIRE(g_hal.replies.size() == 1);
+      std::vector<uint8_t> none(1 + sc::kBoardIdBytes, 0);
+      none[0] = sc::kMsgId;
+      CHECK(g_hal.replies[0] == none);
+    } else if (v.kind == "set-id") {
+      REQUIRE(g_hal.replies.size() == 1);
+      CHECK(g_hal.replies[0][0] == sc::kMsgId);
+      CHECK(sc::get_board_id(&g_hal.replies[0][1]) == v.num("id"));
+      CHECK(sc::get_board_id(&g_hal.eeprom[sc::kEepromIdAddr]) == v.num("id"));
     }
   }
+}
+
+TEST_CASE("the board id is kept in EEPROM - none, erased and a bad length are refused") {
+  auto &c = fresh();
+  std::vector<uint8_t> set{sc::kMsgSetId, 1, 2, 3, 4, 5, 6, 7, 8};
+  feed(c, wire(set));
+  feed(c, wire({sc::kMsgIdReq}));
+  REQUIRE(g_hal.replies.size() == 2);
+  CHECK(sc::get_board_id(&g_hal.replies[1][1]) == 0x0807060504030201ull);
+  for (uint8_t fill : {0x00, 0xFF}) {
+    g_hal.replies.clear();
+    feed(c, wire({sc::kMsgSetId, fill, fill, fill, fill, fill, fill, fill, fill}));
+    REQUIRE(g_hal.replies.size() == 1);
+    CHECK(g_hal.replies[0] == std::vector<uint8_t>{sc::kMsgError, sc::kErrConfig, sc::kMsgSetId, 0});
+  }
+  g_hal.replies.clear();
+  feed(c, wire({sc::kMsgSetId, 1, 2, 3}));
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(g_hal.replies[0][1] == sc::kErrLength);
+  CHECK(sc::get_board_id(&g_hal.eeprom[sc::kEepromIdAddr]) == 0x0807060504030201ull);  // kept
+  CHECK(g_hal.eeprom_writes == 1);
 }
 
 TEST_CASE("the caps reply matches the spec's caps vector") {

@@ -1,14 +1,17 @@
 // test_rig.cpp: the rig file every command reads: where it is looked for, which [[boards]]
-// entry a port gets, and the motors' musical settings a song is planned with.
+// entry a port gets, and the motors' musical settings a song is planned with; the host's
+// memory of the boards it has met.
 #include <catch2/catch.hpp>
 
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 
+#include "config/board_memory.h"
 #include "config/rig.h"
 
 using namespace stepchoir;
@@ -120,4 +123,41 @@ TEST_CASE("rig: the song's motors take their range, transpose, tuning and mutes 
   CHECK(music[2].lowest_note == MotorConfig{}.lowest_note);
   for (const MotorConfig &m : music) CHECK(m.f_cpu_hz == 16001000);
   CHECK(motor_music(nullptr, 16000000, {0}).at(0).transpose == 0);
+}
+
+TEST_CASE("board memory: in XDG_CACHE_HOME, else ~/.cache - a record kept, replaced and read back", "[config]") {
+  {
+    ScopedEnv xdg("XDG_CACHE_HOME", "/x/cache");
+    CHECK(board_memory_path() == "/x/cache/stepchoir/boards.toml");
+  }
+  {
+    ScopedEnv xdg("XDG_CACHE_HOME", nullptr);
+    ScopedEnv home("HOME", "/home/player");
+    CHECK(board_memory_path() == "/home/player/.cache/stepchoir/boards.toml");
+  }
+  const std::string path = scratch_dir("memory") + "/deeper/stepchoir/boards.toml";
+  std::remove(path.c_str());
+  CHECK_FALSE(recall_board(0x0123456789abcdefull, path));  // no file: met for the first time
+  remember_board(0x0123456789abcdefull, {"uno_cnc_shield_v3", 2493.7, 6.1}, path);
+  remember_board(0xfedcba9876543210ull, {"mega_ramps_14", -1500.25, 4}, path);
+  remember_board(0x0123456789abcdefull, {"uno_cnc_shield_v3", 2494.5, 5.5}, path);  // replaced
+  const auto uno = recall_board(0x0123456789abcdefull, path);
+  REQUIRE(uno);
+  CHECK(uno->name == "uno_cnc_shield_v3");
+  CHECK(uno->clock_ppm == 2494.5);
+  CHECK(uno->sigma_ppm == 5.5);
+  const auto mega = recall_board(0xfedcba9876543210ull, path);
+  REQUIRE(mega);
+  CHECK(mega->clock_ppm == -1500.25);
+  CHECK_FALSE(recall_board(1, path));
+  CHECK(board_id_hex(0xabcull) == "0000000000000abc");
+}
+
+TEST_CASE("board memory: a broken file names its line and column", "[config]") {
+  const std::string path = scratch_dir("memory-bad") + "/boards.toml";
+  std::ofstream(path) << "[boards.0000000000000001]\nclock_ppm = 'fast'\nsigma_ppm = 3\n";
+  CHECK_THROWS_WITH(recall_board(1, path), path + ":1:1: board 0000000000000001: expected clock_ppm and sigma_ppm "
+                                                  "(numbers, sigma_ppm >= 0)");
+  std::ofstream(path) << "[boards\n";
+  CHECK_THROWS_WITH(recall_board(1, path), Catch::StartsWith(path + ":1:"));
 }

@@ -103,6 +103,13 @@ TEST_CASE("host encoders produce the spec's payloads") {
       CHECK(v.payload[0] == sc::kMsgClock);
       CHECK(v.payload[1] == v.num("seq"));
       CHECK(sc::get_u32(&v.payload[2]) == v.num("ticks"));
+    } else if (v.kind == "set-id" || v.kind == "id") {
+      CHECK(v.payload[0] == (v.kind == "id" ? sc::kMsgId : sc::kMsgSetId));
+      REQUIRE(v.payload.size() == 1 + sc::kBoardIdBytes);
+      CHECK(sc::get_board_id(&v.payload[1]) == v.num("id"));
+      std::vector<uint8_t> back(1 + sc::kBoardIdBytes, v.payload[0]);
+      sc::put_board_id(&back[1], v.num("id"));
+      CHECK(back == v.payload);
     } else if (v.kind == "at") {
       CHECK(sc::get_u32(&v.payload[1]) == v.num("ticks"));
       sc::PeriodEntry e{};

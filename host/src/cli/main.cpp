@@ -13,6 +13,7 @@
 #include "cli/gcode_command.h"
 #include "cli/live_cli.h"
 #include "cli/play_command.h"
+#include "config/board_memory.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "core/pitch.h"
@@ -38,6 +39,25 @@ void print_caps(const stepchoir::Caps &c) {
                        : (e & sc::kEndstopShared) ? "one switch for both ends"
                                                   : (e & sc::kEndstopMin && e & sc::kEndstopMax) ? "min and max"
                                                                                                    : (e & sc::kEndstopMin) ? "min" : "max");
+  }
+}
+
+// Prints the board's id (a new board gets one) and the crystal error the host remembers of it.
+void print_identity(stepchoir::Board &board) {
+  const std::optional<uint64_t> id = stepchoir::identify_board(board);
+  if (!id) {
+    std::printf("id: none (the firmware keeps no id)\n");
+    return;
+  }
+  std::printf("id: %s\n", stepchoir::board_id_hex(*id).c_str());
+  try {
+    if (const auto known = stepchoir::recall_board(*id))
+      std::printf("crystal: %+.1f ppm (+/- %.1f), remembered in %s\n", known->clock_ppm, known->sigma_ppm,
+                  stepchoir::board_memory_path().c_str());
+    else
+      std::printf("crystal: not measured yet (a song measures it)\n");
+  } catch (const std::exception &e) {
+    std::printf("crystal: %s\n", e.what());
   }
 }
 
@@ -252,6 +272,7 @@ int main(int argc, char **argv) {
       stepchoir::configure_motors(board, caps, *settings, port);
     if (app.got_subcommand(hello)) {
       print_caps(caps);
+      print_identity(board);
     } else if (app.got_subcommand(status)) {
       auto s = board.status(1000);
       if (!s) throw std::runtime_error(port + ": no status reply");

@@ -17,6 +17,7 @@
 #include "board/link.h"
 #include "board/vboard_child.h"
 #include "cli/play_report.h"
+#include "config/board_memory.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "core/pitch.h"
@@ -266,6 +267,8 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       Caps caps;
       const BoardSettings *settings = nullptr;
       std::vector<uint8_t> song_ids;  // its motors that play the song
+      std::optional<uint64_t> id;     // a board on a port: its id (config/board_memory.h)
+      std::optional<BoardRecord> known;
     };
     std::vector<BoardRun> boards;
     for (size_t b = 0; b < paths.size(); ++b) {
@@ -273,6 +276,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       r.path = paths[b];
       r.board = std::make_unique<Board>(open_link(r.path));
       r.caps = vbs.empty() ? r.board->greet() : r.board->hello();  // its own board does not reset
+      if (vbs.empty() && !rendering) recall(cmd, r.path, *r.board, &r.id, &r.known);
       r.settings = board_settings(rig, r.path, b);
       if (r.settings) configure_motors(*r.board, r.caps, *r.settings, r.path);
       for (uint8_t m = 0; m < r.caps.motor_count; ++m)
@@ -355,6 +359,10 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       po.loop = loop && !rendering;
       po.auto_tune = !no_auto_tune;
       po.a4_hz = rig.config.a4_hz;
+      if (boards[b].known) {
+        po.crystal_ppm = boards[b].known->clock_ppm;
+        po.crystal_sigma_ppm = boards[b].known->sigma_ppm;
+      }
       if (boards.size() > 1) po.start_gate = [&gate, b](uint64_t now_us) { return gate.ready(b, now_us); };
       LinkOpener opener;
       const std::string path = boards[b].path;
@@ -396,6 +404,9 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       report_player(players.size() > 1 ? cmd + ": " + boards[b].path : cmd, players[b]->stats(), ok[b], stop.load(),
                     !rendering);
       if (!ok[b]) std::fprintf(stderr, "%s: %s\n", cmd.c_str(), players[b]->error().c_str());
+      const ClockSync &clock = players[b]->clock();
+      if (ok[b] && boards[b].id && !no_auto_tune && clock.has_rate())
+        remember(cmd, *boards[b].id, {boards[b].caps.board_name, clock.ppm(), clock.rate_sigma_ppm()});
       all_ok = all_ok && ok[b];
     }
     if (!all_ok) return 1;

@@ -108,4 +108,34 @@ void report_player(const std::string &who, const PlayerStats &s, bool ok, bool s
   std::fflush(stdout);
 }
 
+void recall(const std::string &cmd, const std::string &port, Board &board, std::optional<uint64_t> *id,
+            std::optional<BoardRecord> *known) {
+  *id = identify_board(board);
+  if (!*id) {
+    std::printf("%s: %s keeps no board id (older firmware): its crystal is measured afresh\n", cmd.c_str(), port.c_str());
+    return;
+  }
+  try {
+    *known = recall_board(**id);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "%s: %s (the board memory is left aside)\n", cmd.c_str(), e.what());
+    return;
+  }
+  if (*known)
+    std::printf("%s: %s is board %s, met before: crystal %+.1f ppm\n", cmd.c_str(), port.c_str(),
+                board_id_hex(**id).c_str(), (*known)->clock_ppm);
+  else
+    std::printf("%s: %s is board %s, met for the first time\n", cmd.c_str(), port.c_str(), board_id_hex(**id).c_str());
+}
+
+void remember(const std::string &cmd, uint64_t id, const BoardRecord &record) {
+  try {
+    remember_board(id, record);
+    std::printf("%s: board %s: crystal %+.1f ppm (+/- %.1f) remembered in %s\n", cmd.c_str(), board_id_hex(id).c_str(),
+                record.clock_ppm, record.sigma_ppm, board_memory_path().c_str());
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "%s: %s (the board's crystal is not remembered)\n", cmd.c_str(), e.what());
+  }
+}
+
 }  // namespace stepchoir

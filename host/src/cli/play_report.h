@@ -6,8 +6,10 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <optional>
 #include <string>
 
+#include "config/board_memory.h"
 #include "player/plan.h"
 #include "player/player.h"
 #include "song/song.h"
@@ -32,6 +34,16 @@ void print_progress(const PlayerProgress &p);
 // its own counters. who: the command, or "play: PORT" with several boards. Called from:
 // PlayCommand::run.
 void report_player(const std::string &who, const PlayerStats &s, bool ok, bool stopped, bool real_time);
+
+// A board on a port: reads its id (giving a new board one) and what the host remembers of it,
+// and says so ("play: board ID met before: crystal +2493.7 ppm"). A board memory that cannot
+// be read is reported and left aside. Called from: PlayCommand::run, after the greeting.
+void recall(const std::string &cmd, const std::string &port, Board &board, std::optional<uint64_t> *id,
+            std::optional<BoardRecord> *known);
+
+// Keeps what the song measured of board id's crystal (config/board_memory.h); a failure is
+// reported, not fatal. Called from: PlayCommand::run, after the song.
+void remember(const std::string &cmd, uint64_t id, const BoardRecord &record);
 
 // Toggles pause (the keys, SIGUSR1). Defined by play_command.cpp.
 void toggle_play_pause();

@@ -8,13 +8,15 @@
 
 namespace stepchoir {
 
-std::string default_config_path() {
-  const char *xdg = std::getenv("XDG_CONFIG_HOME");
-  if (xdg && *xdg) return std::string(xdg) + "/stepchoir/stepchoir.toml";
+std::string xdg_file(const char *xdg_variable, const char *home_dir, const std::string &name) {
+  const char *xdg = std::getenv(xdg_variable);
+  if (xdg && *xdg) return std::string(xdg) + "/stepchoir/" + name;
   const char *home = std::getenv("HOME");
-  if (home && *home) return std::string(home) + "/.config/stepchoir/stepchoir.toml";
+  if (home && *home) return std::string(home) + "/" + home_dir + "/stepchoir/" + name;
   return "";
 }
+
+std::string default_config_path() { return xdg_file("XDG_CONFIG_HOME", ".config", "stepchoir.toml"); }
 
 std::string rig_path(const std::string &given) {
   if (!given.empty()) return given;

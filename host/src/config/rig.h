@@ -15,6 +15,11 @@
 
 namespace stepchoir {
 
+// $xdg_variable/stepchoir/name, or ~/home_dir/stepchoir/name when the variable is unset or
+// empty ("" when HOME is unset too), as the XDG base directory spec says. Called from:
+// default_config_path, board_memory_path.
+std::string xdg_file(const char *xdg_variable, const char *home_dir, const std::string &name);
+
 // $XDG_CONFIG_HOME/stepchoir/stepchoir.toml, or ~/.config/stepchoir/stepchoir.toml when
 // XDG_CONFIG_HOME is unset or empty ("" when HOME is unset too). Called from: rig_path,
 // `stepchoir config --where`.

@@ -68,6 +68,10 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
   if (opt_.board_time) sync_.set_window(kBoardTimeWindow, 0.02, 1e9, 1);
   // Sharing the board (jam), the requests wait in the live path's queue before they go out.
   if (!opt_.exclusive) sync_.set_way(ClockSync::Way::kRoundTrip);
+  // A board met before: its remembered crystal is the clock fit's prior, so the first note is
+  // in tune although the first second's samples cannot tell the rate that well.
+  if (opt_.crystal_ppm && !opt_.board_time && opt_.auto_tune)
+    sync_.set_prior(caps_.f_cpu_hz * (1 + *opt_.crystal_ppm / 1e6), opt_.crystal_sigma_ppm);
 }
 
 // Called from: everything that writes. One frame; counts it against the link budget (waiting

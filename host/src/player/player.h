@@ -28,6 +28,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,10 @@ struct PlayerOptions {
   double reconnect_s = 30;       // a lost board is retried this long (0: give up at once)
   std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
   bool exclusive = true;         // the board is the song's alone (jam: false, see silence())
+  // The board's crystal error and its standard error (ppm) as remembered from an earlier song
+  // (config/board_memory.h); the clock fit's prior. nullopt: a board met for the first time.
+  std::optional<double> crystal_ppm;
+  double crystal_sigma_ppm = 0;
   // Several boards in one song (player/start_gate.h): called once this board's clock is synced
   // with the host time (us), and again every millisecond while it returns 0; then it returns
   // the host time that every board takes for the song's start. Empty: this board alone.

@@ -8,6 +8,7 @@
 #include <vector>
 
 extern "C" {
+#include <simavr/avr_eeprom.h>
 #include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_uart.h>
@@ -86,6 +87,54 @@ bool AvrAdapter::load(const std::string &elf_path, std::string &error) {
   apply_initial_levels();
   hook_callbacks();
   fix_uart_timing();
+  return true;
+}
+
+// simavr's EEPROM ioctls return -1 when they did their work and -2 for a bad request; some
+// versions refuse a request that reaches the EEPROM's last byte, so that byte is then left out.
+// 0 when done.
+int AvrAdapter::eeprom_ioctl(uint32_t ctl, avr_eeprom_desc_t *desc) {
+  if (avr_ioctl(avr_, ctl, desc) != -2) return 0;
+  if (desc->size < 2) return -1;
+  --desc->size;
+  return avr_ioctl(avr_, ctl, desc) != -2 ? 0 : -1;
+}
+
+bool AvrAdapter::load_eeprom(const std::string &path, std::string &error) {
+  std::FILE *f = std::fopen(path.c_str(), "rb");
+  if (!f) return true;  // a new board: erased
+  std::vector<uint8_t> bytes(board_.eeprom_bytes, 0xFF);
+  const size_t n = std::fread(bytes.data(), 1, bytes.size(), f);
+  const bool read_error = std::ferror(f) != 0;
+  std::fclose(f);
+  if (read_error) {
+    error = path + ": cannot read the EEPROM file";
+    return false;
+  }
+  if (n == 0) return true;
+  avr_eeprom_desc_t desc{bytes.data(), 0, static_cast<uint32_t>(n)};
+  if (eeprom_ioctl(AVR_IOCTL_EEPROM_SET, &desc) != 0) {
+    error = path + ": simavr refused the EEPROM contents";
+    return false;
+  }
+  return true;
+}
+
+bool AvrAdapter::save_eeprom(const std::string &path, std::string &error) {
+  std::vector<uint8_t> bytes(board_.eeprom_bytes, 0xFF);
+  avr_eeprom_desc_t desc{bytes.data(), 0, static_cast<uint32_t>(bytes.size())};
+  if (eeprom_ioctl(AVR_IOCTL_EEPROM_GET, &desc) != 0) {
+    error = "simavr gave no EEPROM contents";
+    return false;
+  }
+  // simavr either copies into ee or points ee at its own bytes.
+  const uint8_t *from = desc.ee ? desc.ee : bytes.data();
+  std::FILE *f = std::fopen(path.c_str(), "wb");
+  if (!f || std::fwrite(from, 1, bytes.size(), f) != bytes.size() || std::fclose(f) != 0) {
+    if (f) std::fclose(f);
+    error = path + ": cannot write the EEPROM file";
+    return false;
+  }
   return true;
 }
 

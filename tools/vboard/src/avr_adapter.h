@@ -15,6 +15,7 @@
 
 struct avr_t;
 struct avr_irq_t;
+struct avr_eeprom_desc_t;
 
 namespace vboard {
 
@@ -35,6 +36,11 @@ class AvrAdapter : public SwitchPinDriver {
   static void install_logger(bool quiet);
   // Creates the MCU, loads elf_path, sets initial pin levels and hooks pins and UART0.
   bool load(const std::string &elf_path, std::string &error);
+  // The EEPROM as a file (--eeprom), so a board keeps its id from run to run: load_eeprom
+  // fills it from path if the file exists (after load(); a shorter file fills the start),
+  // save_eeprom writes it whole. False with error when the file cannot be read or written.
+  bool load_eeprom(const std::string &path, std::string &error);
+  bool save_eeprom(const std::string &path, std::string &error);
   // The board's bootloader, as what it does to the firmware and the host: for `cycles` from
   // now the core runs an idle loop in the boot section with the UART off (host bytes that come
   // meanwhile are lost), then the firmware starts from address 0. Called after load(): at
@@ -91,6 +97,7 @@ class AvrAdapter : public SwitchPinDriver {
   void wake_at(uint64_t cycle) override;
 
  private:
+  int eeprom_ioctl(uint32_t ctl, ::avr_eeprom_desc_t *desc);
   struct PinHook;
   struct SwitchPort;
 

@@ -47,6 +47,7 @@ bool board_config_for(const std::string &cli_name, BoardConfig &config) {
     config.table_name = b::kName;
     config.mcu = b::kMcu;
     config.vector_count = 26;  // ATmega328P
+    config.eeprom_bytes = 1024;
     // Optiboot (bootloaders/optiboot/optiboot.c in Debian's arduino-core-avr; the Uno R3's): after
     // an external reset it flashes the LED 3 times (6 toggles of 62.5 ms on Timer1), then
     // waits for a programmer with a 1 s watchdog, which starts the firmware. At power-on it
@@ -63,6 +64,7 @@ bool board_config_for(const std::string &cli_name, BoardConfig &config) {
     config.table_name = b::kName;
     config.mcu = b::kMcu;
     config.vector_count = 57;  // ATmega2560
+    config.eeprom_bytes = 4096;
     // stk500v2 (bootloaders/stk500v2/stk500boot_v2_mega2560.hex in Debian's arduino-core-avr,
     // the Mega 2560's): waits for a programmer after any reset but the watchdog's, power-on
     // included. Its hex, run on the virtual board with no byte coming, started the firmware

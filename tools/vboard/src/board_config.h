@@ -34,6 +34,7 @@ struct BoardConfig {
   std::string mcu;         // simavr core name
   uint32_t f_cpu_hz = 16000000;
   unsigned vector_count = 0;  // interrupt vectors incl. reset
+  unsigned eeprom_bytes = 0;  // the MCU's EEPROM (datasheet: E2END + 1)
   bool enable_active_low = true;
   std::vector<MotorConfig> motors;
   std::vector<PinRef> arduino_pins;  // Arduino pin number -> port and bit (the table's kPinMap)

@@ -298,6 +298,10 @@ int run(const Options &options, FILE *real_stdout) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;
   }
+  if (!options.eeprom_path.empty() && !avr.load_eeprom(options.eeprom_path, error)) {
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
+    return 1;
+  }
   if (options.bootloader && board.bootloader_at_power_on) avr.hold_in_bootloader(ms_to_cycles(board.bootloader_ms, board));
   std::unique_ptr<CpuProfiler> profiler;
   if (options.measure) {
@@ -319,6 +323,8 @@ int run(const Options &options, FILE *real_stdout) {
   const LoopResult result = simulate(options, board, avr, link, trace);
 
   if (profiler) profiler->finish(avr.cycle(), avr.interrupts_enabled());
+  if (!options.eeprom_path.empty() && !avr.save_eeprom(options.eeprom_path, error))
+    std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
   const RunFacts facts = gather_facts(options, board, avr, link, noise, result);
   const std::vector<std::string> summary = summary_lines(facts, model, profiler.get(), symbols);
   trace.comment("end cycle=" + std::to_string(facts.end_cycle));

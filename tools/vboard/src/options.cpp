@@ -49,7 +49,8 @@ bool parse_motor_pin(const std::string &text, Options::MotorPin &out) {
 // Usage text.
 const char *usage_text() {
   return "usage: stepchoir-vboard --board uno|mega [--elf PATH] [--link PATH] [--clock-ppm N]\n"
-         "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--travel-steps N]\n"
+         "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--eeprom FILE]\n"
+         "          [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
          "          [--sleep-pin M=PIN] [--reset-pin M=PIN] [--wake-us N]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
@@ -64,6 +65,8 @@ const char *usage_text() {
          "  --speed X           run X times as fast as real time (as far as the machine can)\n"
          "  --seconds S         stop after S simulated seconds (default: until SIGINT/SIGTERM)\n"
          "  --trace FILE        CSV of step/dir/enable/endstop/bounce events\n"
+         "  --eeprom FILE       the board's EEPROM: read from FILE at start if it exists, written\n"
+         "                      back at exit (the same board again; default: erased every run)\n"
          "  --travel-steps N    rail length (default 3200); --start-position N (default N/2)\n"
          "  --switch-active L   level of a pressed end switch (default low)\n"
          "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
@@ -116,6 +119,8 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
       if (!value_of(options.link_path)) return false;
     } else if (arg == "--trace") {
       if (!value_of(options.trace_path)) return false;
+    } else if (arg == "--eeprom") {
+      if (!value_of(options.eeprom_path)) return false;
     } else if (arg == "--clock-ppm") {
       if (!value_of(value)) return false;
       if (!parse_real(value, options.clock_ppm) || std::fabs(options.clock_ppm) >= 1e6) {

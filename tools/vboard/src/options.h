@@ -14,6 +14,7 @@ struct Options {
   std::string elf_path;    // empty = default next to the binary
   std::string link_path;   // empty = no symlink
   std::string trace_path;  // empty = no trace
+  std::string eeprom_path; // empty = an erased EEPROM every run (a new board)
   double clock_ppm = 0;
   bool pacing = true;
   double speed = 1.0;  // pacing: simulated seconds per wall second
