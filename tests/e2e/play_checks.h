@@ -120,8 +120,18 @@ inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
               c.tempo_ppm, c.max_cents, c.max_spread_cents, c.max_release_late_us, c.max_release_early_us);
 }
 
+// True when the board ran behind a USB bridge's model (its summary names the link model).
+inline bool behind_bridge(const sc::trace::Trace &t) {
+  for (const std::string &line : t.summary_lines)
+    if (line.find(" link_model=") != std::string::npos && line.find(" link_model=ideal ") == std::string::npos) return true;
+  return false;
+}
+
 // The checks every played song passes: every planned note (from from_s on) found, onsets
-// within 100 us of the song's line (99 %; every one within 250 us), every note within 0.5 cent
+// within 100 us of the song's line (99 %; every one within 250 us) on the ideal link, within
+// 0.5 ms (every one within 1 ms) behind a bridge (the issue's target there: a board met for the
+// first time gets its rate from a second of round trips through 1 ms USB frames and 4 ms
+// batches, and the refined rate that follows bends the line a little), every note within 0.5 cent
 // of its pitch in real time (the player refines the board's clock rate as the song goes on,
 // so notes are not all tuned alike: docs/decisions/023-player-follows-refined-clock.md). With
 // fixed_rate (jam: the rate measured before the first note stays), every note in tune with the
@@ -133,10 +143,11 @@ inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace
   print_figures(what, c);
   INFO(c.first_problem);
   CHECK(c.found == c.notes);
-  CHECK(pct(c.onset_err_us, 0.99) < 100.0);
+  const bool bridge = behind_bridge(t);
+  CHECK(pct(c.onset_err_us, 0.99) < (bridge ? 500.0 : 100.0));
   // The worst onset: a note whose first edge meets a burst of the other motors' edges comes
   // late by the step ISR's edge timing (issue 2: up to ~90 us seen with four motors busy).
-  CHECK(pct(c.onset_err_us, 1.0) < 250.0);
+  CHECK(pct(c.onset_err_us, 1.0) < (bridge ? 1000.0 : 250.0));
   if (fixed_rate)
     CHECK(c.max_spread_cents < 0.05);
   else

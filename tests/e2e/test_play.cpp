@@ -6,11 +6,13 @@
 
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <thread>
@@ -46,7 +48,8 @@ TEST_CASE("play: a multi-track MIDI file, every note on time and in tune, with t
   std::thread staller([&] {
     std::mt19937 rng(11);
     std::uniform_int_distribution<int> stall_ms(20, 80), run_ms(30, 150);
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past the clock sync
+    // Past the clock sync (up to 3 s for a board met for the first time behind a USB bridge).
+    std::this_thread::sleep_for(std::chrono::milliseconds(3500));
     while (!done.load()) {
       const pid_t pid = play.pid();
       if (pid <= 0 || kill(pid, SIGSTOP) != 0) break;
@@ -105,22 +108,35 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   const std::string song = write_test_song("play-reset.mid");
   const std::string link = scratch("play-reset.pty");
   const std::string trace2 = scratch("play-reset-after.csv");
+  // A board the host has met before (its id in its EEPROM, its crystal in the host's memory),
+  // so that its sync takes a second, whatever the link.
+  const std::string eeprom = scratch("play-reset.eeprom"), cache = scratch("play-reset-cache");
+  std::ofstream(eeprom, std::ios::binary) << std::string("\x01\x02\x03\x04\x05\x06\x07\x08", 8);
+  ::mkdir(cache.c_str(), 0700);
+  ::mkdir((cache + "/stepchoir").c_str(), 0700);
+  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.0807060504030201]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
+  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);  // the player reads it
+  struct Restore {
+    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
+  } restore;
   // The boards reset when play opens them, as an Uno does: play waits out the bootloader
   // (1.4 s) both times.
-  auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--quiet"});
+  auto vb = std::make_unique<VboardProcess>(
+      std::vector<std::string>{"--board", "uno", "--auto-reset", "--eeprom", eeprom, "--link", link, "--quiet"});
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--tempo", "0.5", "--port", link, "--quiet"}, true);
-  // the bootloader, one or two seconds of sync (until the rate is within 30 ppm), then into the song
+  // the bootloader, a second of sync, then into the song
   std::this_thread::sleep_for(std::chrono::milliseconds(3600));
   vb.reset();  // the board goes away (SIGTERM: power off) ...
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  vb = std::make_unique<VboardProcess>(
-      std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--trace", trace2, "--quiet"});
+  vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--eeprom", eeprom,
+                                                                "--link", link, "--trace", trace2, "--quiet"});
   const std::string out = play.read_rest(60000);  // ... and comes back
   const int status = play.wait();
   vb->stop();
   INFO(out);
   REQUIRE(status == 0);
   CHECK(out.find("reconnects 1") != std::string::npos);
+  CHECK(out.find("is board 0807060504030201, met before") != std::string::npos);
   // After the reconnection the song goes on in its own time: the notes that start after the
   // new board came up play, on time against each other.
   const auto t = sc::trace::read_trace(trace2);
@@ -450,8 +466,9 @@ TEST_CASE("play: pause and resume (SIGUSR1), loop, and Ctrl-C leave the motors r
                     true);
   std::string line;
   REQUIRE(play.read_line(&line, 20000));  // "play: no --port: ..."
-  // The clock sync (up to 2 s behind a USB bridge), the lead, a second of song.
-  std::this_thread::sleep_for(std::chrono::milliseconds(3300));
+  // The clock sync (up to 3 s for a board met for the first time behind a USB bridge), the
+  // lead, a second of song.
+  std::this_thread::sleep_for(std::chrono::milliseconds(4300));
   kill(play.pid(), SIGUSR1);                                      // pause
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(play.pid(), SIGUSR1);                                      // resume

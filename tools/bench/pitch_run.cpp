@@ -274,8 +274,10 @@ PassResult run_pass(const Options &opt, const std::vector<int> &notes, Traffic t
   // the music length is known once the motor count is; cap the run generously, stop it ourselves
   const size_t max_rounds = notes.size();
   const double cap_seconds = kLeadSeconds + (max_rounds + 1) * opt.round_seconds + kRunCapExtraSeconds;
-  std::vector<std::string> args{"--board", opt.board_name, "--seconds", fixed(cap_seconds, 3),
-                                "--trace", result.trace_path, "--quiet"};
+  // The ideal link: the firmware's pitch under frames at the UART's full rate, which a USB
+  // bridge's 1 ms frames would space out.
+  std::vector<std::string> args{"--board", opt.board_name, "--seconds", fixed(cap_seconds, 3), "--trace",
+                                result.trace_path, "--quiet", "--link-model", "ideal"};
   if (!opt.elf_path.empty()) args.insert(args.end(), {"--elf", opt.elf_path});
   Plan plan;
   {

@@ -108,7 +108,9 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
   if (xs.size() >= 2) fit_line(xs, ys, &a, &b);
   // Every note's onset edge on that line, then the line again through all of them. A note on a
   // silent motor begins with the step after the gap nearest the line (within 5 ms), however far
-  // the line is off; a note that follows another with its first step after the line's time.
+  // the line is off; a note that follows another (struck on its time) with the step nearest the
+  // line within half its period (a strike a little before the line is still its onset, not the
+  // old note's last step).
   auto onset_edge = [&](const ScoreNote &n) -> long {
     const auto &s = t.motor.at(n.motor).steps;
     const size_t k = static_cast<size_t>(&n - notes.data());
@@ -125,10 +127,20 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
       }
       if (best_i >= 0) return best_i;
     }
-    const double want = a + b * n.on_s - 0.00005;
-    const auto it = std::lower_bound(s.begin(), s.end(), want, [&](const Step &st, double v) {
+    const double want = a + b * n.on_s;
+    const double half = 0.5 / hz_from_midi(n.midi_note);
+    auto it = std::lower_bound(s.begin(), s.end(), want - half, [&](const Step &st, double v) {
       return sec(st.rise_cycle) < v;
     });
+    long best_i = -1;
+    double best_off = 0;
+    for (; it != s.end() && sec(it->rise_cycle) <= want + half; ++it) {
+      const double off = std::fabs(sec(it->rise_cycle) - want);
+      if (best_i < 0 || off < best_off) best_off = off, best_i = static_cast<long>(it - s.begin());
+    }
+    if (best_i >= 0) return best_i;
+    // None within half a period (a note that came late by more): its first step after the time.
+    it = std::lower_bound(s.begin(), s.end(), want, [&](const Step &st, double v) { return sec(st.rise_cycle) < v; });
     return it == s.end() ? -1 : static_cast<long>(it - s.begin());
   };
   xs.clear(), ys.clear();

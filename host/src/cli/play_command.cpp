@@ -154,7 +154,7 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
                   "Board the virtual board simulates (without --port); several (uno,mega): one song on all")
         ->delimiter(',')->check(CLI::IsMember({"uno", "mega"}))->default_str("uno");
     s->add_option("--vboard-link", c->vboard_link,
-                  "The virtual board's USB bridge (default: the virtual board's; docs/usb-bridges.md)")
+                  "The virtual board's USB bridge (default 16u2, the Uno's and Mega's; docs/usb-bridges.md)")
         ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
     s->add_option("--config,-c", c->config,
                   "Rig configuration: the board's port and each motor's driver, range, transpose, tuning (default: " +

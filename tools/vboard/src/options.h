@@ -33,7 +33,7 @@ struct Options {
   uint64_t wake_us = 1000;  // a driver takes steps this long after its SLEEP rose
   uint64_t seed = 1;
   double line_drop = 0, line_corrupt = 0, line_duplicate = 0;  // per host byte, 0-0.5
-  std::string link_model = "ideal";  // the USB bridge: ideal | 16u2 | ftdi | ch340
+  std::string link_model = "16u2";  // the USB bridge: ideal | 16u2 | ftdi | ch340 (an Uno or Mega R3)
   unsigned ftdi_latency_ms = 16;     // the ftdi model's latency timer, 1-255
   bool bootloader = true;  // the board's bootloader in flash, run at every reset
   bool auto_reset = true;  // the host's open of the pty resets the board (DTR)
