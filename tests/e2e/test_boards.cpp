@@ -3,17 +3,24 @@
 // play --port A --port B`: their motors form one pool, each board's clock is synced on its own,
 // and the notes of both line up in real time (the traces laid on the machine's monotonic clock).
 // `stepchoir render --vboard uno,mega` writes one WAV and one piano roll of both boards' motors.
+// A board lost mid-song: the other plays on, and it rejoins when it is back.
 #include <catch2/catch.hpp>
 
 #include <sys/resource.h>
+#include <sys/stat.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "analysis.h"
+#include "board/child_process.h"
 #include "merge.h"
 #include "play_checks.h"
 #include "score.h"
@@ -50,6 +57,21 @@ std::string write_eight_voices(const std::string &name) {
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char *>(bytes.data()),
                                                static_cast<std::streamsize>(bytes.size()));
   return path;
+}
+
+// Plan motors 0-3 are board A's, 4-7 board B's: board's notes from from_s on, its motors
+// numbered from 0, in onset order.
+std::vector<tr::ScoreNote> board_score(const Plan &plan, int board, double from_s = 0) {
+  Plan part;
+  for (PlannedNote n : plan.notes)
+    if ((n.motor >= 4) == (board == 1)) {
+      n.motor = static_cast<uint8_t>(n.motor % 4);
+      part.notes.push_back(n);
+    }
+  std::vector<tr::ScoreNote> score = score_of(part);
+  score.erase(std::remove_if(score.begin(), score.end(), [&](const auto &n) { return n.on_s < from_s; }), score.end());
+  std::stable_sort(score.begin(), score.end(), [](const auto &x, const auto &y) { return x.on_s < y.on_s; });
+  return score;
 }
 
 }  // namespace
@@ -94,15 +116,8 @@ TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 brid
   // the monotonic clock less its song time.
   std::vector<double> offset_s[2];
   for (int board = 0; board < 2; ++board) {
-    Plan part;
-    for (PlannedNote n : plan.notes)
-      if ((n.motor >= 4) == (board == 1)) {
-        n.motor = static_cast<uint8_t>(n.motor % 4);
-        part.notes.push_back(n);
-      }
-    REQUIRE(part.notes.size() >= 4 * 16);
-    std::vector<tr::ScoreNote> score = score_of(part);
-    std::stable_sort(score.begin(), score.end(), [](const auto &x, const auto &y) { return x.on_s < y.on_s; });
+    const std::vector<tr::ScoreNote> score = board_score(plan, board);
+    REQUIRE(score.size() >= 4 * 16);
     const tr::Trace &t = board ? tb : ta;
     const tr::ScoreCheck c = tr::check_score(t, score);
     print_figures(board ? "two boards, B (-1500 ppm)" : "two boards, A (+2000 ppm)", c);
@@ -166,4 +181,75 @@ TEST_CASE("render: one song on an Uno and a Mega, one WAV and one piano roll of 
   REQUIRE(both.motors == 9);
   const tr::ScoreCheck c = check_song("render, two boards", both, plan);
   CHECK(std::fabs(c.tempo_ppm) < 1.0);
+}
+
+TEST_CASE("play: a board lost mid-song on two boards - the other plays on, and it rejoins when it is back",
+          "[play][pacing]") {
+  // Two boards the host has met before (ids in their EEPROMs, crystals in its memory): each
+  // syncs in a second, so the loss falls into the song.
+  const std::string cache = e2e::scratch("lost-cache"), eeprom_a = e2e::scratch("lost-a.eeprom"),
+                    eeprom_b = e2e::scratch("lost-b.eeprom");
+  std::ofstream(eeprom_a, std::ios::binary) << std::string("\x0a\x00\x00\x00\x00\x00\x00\x01", 8);
+  std::ofstream(eeprom_b, std::ios::binary) << std::string("\x0b\x00\x00\x00\x00\x00\x00\x01", 8);
+  ::mkdir(cache.c_str(), 0700);
+  ::mkdir((cache + "/stepchoir").c_str(), 0700);
+  std::ofstream(cache + "/stepchoir/boards.toml")
+      << "[boards.010000000000000a]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n"
+      << "[boards.010000000000000b]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
+  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);  // the player reads it
+  struct Restore {
+    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
+  } restore;
+  const std::string trace_a = e2e::scratch("lost-a.csv"), trace_b = e2e::scratch("lost-b-after.csv");
+  const std::string link_b = e2e::scratch("lost-b.pty");
+  VboardProcess a({"--board", "uno", "--eeprom", eeprom_a, "--trace", trace_a, "--quiet", "--no-measure"});
+  auto b = std::make_unique<VboardProcess>(
+      std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b, "--quiet", "--no-measure"});
+  const std::string song = write_eight_voices("lost.mid");  // 8 s, at half tempo 16 s
+  ChildProcess play({STEPCHOIR_BIN, "play", song, "--tempo", "0.5", "--port", a.pty(), "--port", link_b, "--quiet"},
+                    true);
+  // Each board's greeting (2 s: a board the open did not reset sends no fresh capabilities, so
+  // the host asks), a second of sync, the lead, then three seconds into the song: board B goes
+  // away (power off) for half a second and comes back.
+  std::this_thread::sleep_for(std::chrono::milliseconds(8500));
+  b.reset();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  b = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b,
+                                                               "--trace", trace_b, "--quiet", "--no-measure"});
+  const std::string out = play.read_rest(60000);
+  const int status = play.wait();
+  b->stop();
+  REQUIRE(a.stop() == 0);
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find(a.pty() + ": done, every motor silent") != std::string::npos);
+  CHECK(out.find(link_b + ": done, every motor silent") != std::string::npos);
+  const size_t report_a = out.find(a.pty() + ": done"), report_b = out.find(link_b + ": done");
+  REQUIRE(report_a != std::string::npos);
+  REQUIRE(report_b != std::string::npos);
+  CHECK(out.find("reconnects 0", report_a) < out.find('\n', report_a));  // A played on
+  CHECK(out.find("reconnects 1", report_b) < out.find('\n', report_b));  // B came back once
+
+  const Plan plan = plan_for(song, 8, 0.5);
+  REQUIRE(plan.unplayed.empty());
+  // Board A: every one of its notes, on time and in tune, as if nothing had happened.
+  const tr::Trace ta = tr::read_trace(trace_a);
+  check_song("lost board, A played on", ta, [&] {
+    Plan part;
+    for (PlannedNote n : plan.notes)
+      if (n.motor < 4) part.notes.push_back(n);
+    return part;
+  }());
+  // Board B after it came back (about 6 s into the song, after its greeting): its notes of the
+  // last 8 s, on time
+  // against each other and in tune.
+  const tr::Trace tb = tr::read_trace(trace_b);
+  const std::vector<tr::ScoreNote> after = board_score(plan, 1, plan.duration_s - 8.0);
+  REQUIRE(after.size() >= 4 * 8);
+  const tr::ScoreCheck c = tr::check_score(tb, after);
+  print_figures("lost board, B after it came back", c);
+  INFO(c.first_problem);
+  CHECK(c.found == c.notes);
+  CHECK(pct(c.onset_err_us, 0.99) < 500.0);
+  CHECK(c.max_cents < 0.5);
 }
