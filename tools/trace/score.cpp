@@ -109,8 +109,8 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
   // Every note's onset edge on that line, then the line again through all of them. A note on a
   // silent motor begins with the step after the gap nearest the line (within 5 ms), however far
   // the line is off; a note that follows another (struck on its time) with the step nearest the
-  // line within half its period (a strike a little before the line is still its onset, not the
-  // old note's last step).
+  // line, within half its period, after which its period runs (a strike a little off the line is
+  // still its onset, and an old note's step nearer the line is not).
   auto onset_edge = [&](const ScoreNote &n) -> long {
     const auto &s = t.motor.at(n.motor).steps;
     const size_t k = static_cast<size_t>(&n - notes.data());
@@ -128,16 +128,21 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
       if (best_i >= 0) return best_i;
     }
     const double want = a + b * n.on_s;
-    const double half = 0.5 / hz_from_midi(n.midi_note);
-    auto it = std::lower_bound(s.begin(), s.end(), want - half, [&](const Step &st, double v) {
+    const double period = 1 / hz_from_midi(n.midi_note);
+    auto it = std::lower_bound(s.begin(), s.end(), want - period / 2, [&](const Step &st, double v) {
       return sec(st.rise_cycle) < v;
     });
-    long best_i = -1;
-    double best_off = 0;
-    for (; it != s.end() && sec(it->rise_cycle) <= want + half; ++it) {
-      const double off = std::fabs(sec(it->rise_cycle) - want);
-      if (best_i < 0 || off < best_off) best_off = off, best_i = static_cast<long>(it - s.begin());
+    long best_i = -1, best_run_i = -1;
+    double best_off = 0, best_run_off = 0;
+    for (; it != s.end() && sec(it->rise_cycle) <= want + period / 2; ++it) {
+      const double at = sec(it->rise_cycle), off = std::fabs(at - want);
+      const long i = static_cast<long>(it - s.begin());
+      if (best_i < 0 || off < best_off) best_off = off, best_i = i;
+      // The note's own period follows its first step (within 3 %, half a semitone).
+      const bool runs = it + 1 != s.end() && std::fabs(sec((it + 1)->rise_cycle) - at - period) < 0.03 * period;
+      if (runs && (best_run_i < 0 || off < best_run_off)) best_run_off = off, best_run_i = i;
     }
+    if (best_run_i >= 0) return best_run_i;
     if (best_i >= 0) return best_i;
     // None within half a period (a note that came late by more): its first step after the time.
     it = std::lower_bound(s.begin(), s.end(), want, [&](const Step &st, double v) { return sec(st.rise_cycle) < v; });
@@ -166,10 +171,18 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     if (std::fabs(err_us) > 100 && c.first_problem.empty())
       c.first_problem = "note " + std::to_string(k) + " (motor " + std::to_string(n.motor) + ", " +
                         std::to_string(n.on_s) + " s): onset off by " + std::to_string(err_us) + " us";
-    // The note's edges: up to its end.
+    // The note's edges: up to its end, and never the onset step of the motor's next note (a
+    // strike a little before the line is that note's, not this one's).
+    size_t stop = s.size();
+    for (size_t q = k + 1; q < notes.size(); ++q)
+      if (notes[q].motor == n.motor && notes[q].on_s >= n.off_s - 1e-9) {
+        const long next = onset_edge(notes[q]);
+        if (next > i) stop = static_cast<size_t>(next);
+        break;
+      }
     std::vector<uint64_t> edges;
     size_t j = static_cast<size_t>(i);
-    for (; j < s.size() && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
+    for (; j < stop && sec(s[j].rise_cycle) < board(n.off_s) - 0.00005; ++j) edges.push_back(s[j].rise_cycle);
     if (edges.empty()) {  // the motor's next edge comes after the note's end: not played
       if (c.first_problem.empty()) c.first_problem = "note " + std::to_string(k) + ": no steps while it lasts";
       continue;
