@@ -215,28 +215,32 @@ void Commands::poll() {
   }
 }
 
+namespace {
+
+// True when all kBoardIdBytes of an id are v (0x00: none set; 0xFF: an erased EEPROM).
+bool id_all(const uint8_t *id, uint8_t v) {
+  for (uint8_t i = 0; i < kBoardIdBytes; ++i)
+    if (id[i] != v) return false;
+  return true;
+}
+
+}  // namespace
+
 // kMsgSetId: keeps the host's id for this board in EEPROM (written only where it changes).
 uint8_t Commands::handle_set_id(const uint8_t *body, uint8_t n) {
   if (n != kBoardIdBytes) return kErrLength;
-  uint8_t zeros = 0, ones = 0;
-  for (uint8_t i = 0; i < kBoardIdBytes; ++i) {
-    zeros = (uint8_t)(zeros + (body[i] == 0x00));
-    ones = (uint8_t)(ones + (body[i] == 0xFF));
-  }
-  if (zeros == kBoardIdBytes || ones == kBoardIdBytes) return kErrConfig;  // "none" and erased
+  if (id_all(body, 0x00) || id_all(body, 0xFF)) return kErrConfig;
   hal::eeprom_write(kEepromIdAddr, body, kBoardIdBytes);
   reply_id();
   return kErrNone;
 }
 
-// kMsgId: the id in EEPROM; all zero when none was set (an erased EEPROM reads all 0xFF).
+// kMsgId: the id in EEPROM; all zero when none was set.
 void Commands::reply_id() {
   uint8_t buf[1 + kBoardIdBytes];
   buf[0] = kMsgId;
   hal::eeprom_read(kEepromIdAddr, buf + 1, kBoardIdBytes);
-  uint8_t ones = 0;
-  for (uint8_t i = 1; i <= kBoardIdBytes; ++i) ones = (uint8_t)(ones + (buf[i] == 0xFF));
-  if (ones == kBoardIdBytes) memset(buf + 1, 0, kBoardIdBytes);
+  if (id_all(buf + 1, 0xFF)) memset(buf + 1, 0, kBoardIdBytes);
   hal::send(buf, sizeof buf);
 }
 

@@ -73,7 +73,7 @@ void reset_uart_overruns();
 void send(const uint8_t *payload, uint8_t len);
 
 // EEPROM bytes at addr. Called from: the main loop (kMsgIdReq, kMsgSetId). A write waits for
-// the EEPROM, 3.4 ms a byte that changes; the step ISRs run on meanwhile.
+// the EEPROM, 3.3 ms a byte that changes (datasheet tWD_EEPROM); the step ISRs run on meanwhile.
 void eeprom_read(uint16_t addr, uint8_t *out, uint8_t len);
 void eeprom_write(uint16_t addr, const uint8_t *data, uint8_t len);
 

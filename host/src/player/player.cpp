@@ -36,8 +36,8 @@ constexpr uint64_t kSyncEveryUs = 10000;
 constexpr uint64_t kBoardTimeSyncEveryUs = 1000;
 // The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent);
 // before the first note the sync waits up to kSyncLongerS (s) longer for it: a board met for
-// the first time behind a USB bridge (a remembered one has its rate at once). Two seconds more
-// bring its first notes within about 0.3 cent, where one left up to 0.55.
+// the first time behind a USB bridge (a remembered one has its rate at once;
+// bench/results/clock-links.md).
 constexpr double kRateSigmaPpm = 30.0;
 constexpr double kSyncLongerS = 2.0;
 // A USB full-speed frame (us): a bridge may hold host bytes this long.
