@@ -85,12 +85,15 @@ enum MsgType : uint8_t {
   kMsgDriverAct = 0x0B,   // DriverActBody: wake, sleep, disable or reset one driver now
   kMsgIdReq = 0x0C,       // (empty) -> kMsgId
   kMsgSetId = 0x0D,       // 8-byte board id (not kBoardIdNone, not all 0xFF) -> kMsgId
+  kMsgMove = 0x0E,        // MoveBody: one motor moves a number of steps on a ramp -> kMsgMoveDone
+  kMsgSetPosition = 0x0F, // SetPositionBody: a motor's counted position (steps) from now on
   // board -> host
   kMsgCaps = 0x41,        // CapsBody + board name (ASCII, rest of payload)
   kMsgStatus = 0x42,      // StatusHead + one StatusMotor per motor
   kMsgClock = 0x43,       // u8 seq, u32 board ticks when the request was decoded
   kMsgError = 0x44,       // u8 error code, u8 message type it concerns, u8 detail
   kMsgId = 0x45,          // 8-byte board id, kept in EEPROM; all zero: none set yet
+  kMsgMoveDone = 0x46,    // MoveDoneBody: a move ended (its steps, a switch, or a stop)
 };
 
 // A board's identity: 8 bytes the host chooses at random and the board keeps in its EEPROM
@@ -118,6 +121,7 @@ enum ErrorCode : uint8_t {
   kErrEndstopStuck = 12,  // an endstop stayed active after the bounce; the motor ignores it
   kErrConfig = 13,        // configuration value out of range
   kErrShortFrame = 14,    // frame too short to hold a type byte and a CRC
+  kErrBusy = 15,          // the motor is moving (a note, a move or a set-position), or sounding (a move)
 };
 
 // A short name for an error code, for logs and tests (host side; the firmware never calls it).
@@ -138,6 +142,7 @@ inline const char *error_name(uint8_t code) {
     case kErrEndstopStuck: return "endstop-stuck";
     case kErrConfig: return "config";
     case kErrShortFrame: return "short-frame";
+    case kErrBusy: return "busy";
     default: return "unknown-error";
   }
 }
@@ -239,7 +244,49 @@ static const uint8_t kMotorDirUp = 0x01;
 static const uint8_t kMotorSounding = 0x02;
 static const uint8_t kMotorEndstopFault = 0x04;
 
+// kMsgMove: motor `motor` moves `steps` steps (or fewer: see kMoveToSwitch), its speed on the
+// seed's Torricelli ramp: from speed_min up at `accel` (v^2 = v0^2 + 2as), at most speed_max,
+// and down again to speed_min at its last step. Speeds in steps/s, accel in steps/s^2. Refused
+// (kErrBusy) while the motor sounds or moves; a note for a moving motor is refused too. The
+// board answers kMsgMoveDone when the move ends. No soft limits and no bounce-back meanwhile.
+struct __attribute__((packed)) MoveBody {
+  uint8_t motor;
+  uint8_t flags;             // kMoveUp | kMoveToSwitch
+  uint32_t steps;            // 1 .. kMaxTravelSteps: the most the move takes
+  uint16_t speed_min;        // kMoveSpeedMin .. speed_max, steps/s: the first and last steps
+  uint16_t speed_max;        // .. kMoveSpeedMax, steps/s
+  uint32_t accel;            // 1 .. kMoveAccelMax, steps/s^2
+};
+static const uint8_t kMoveUp = 0x01;        // position counts up (DIR high)
+static const uint8_t kMoveToSwitch = 0x02;  // ends at the first step that finds the switch ahead pressed
+// Speeds a move may take at 16 MHz: the periods kPeriodQ8Max (15.3 Hz) to kPeriodQ8Min.
+static const uint16_t kMoveSpeedMin = 16;
+static const uint16_t kMoveSpeedMax = 5000;
+static const uint32_t kMoveAccelMax = 1000000ul;
+
+// kMsgMoveDone.
+struct __attribute__((packed)) MoveDoneBody {
+  uint8_t motor;
+  uint8_t end;               // MoveEnd
+  int32_t position;          // the motor's counted position after the move, steps
+  uint32_t steps;            // steps the move took
+};
+enum MoveEnd : uint8_t {
+  kMoveEndSteps = 0,    // it took all its steps
+  kMoveEndSwitch = 1,   // kMoveToSwitch: the switch ahead read pressed after its last step
+  kMoveEndStopped = 2,  // stop-all or the watchdog ended it
+};
+
+// kMsgSetPosition: the motor's position counts from this (steps) from now on; refused
+// (kErrBusy) while it moves.
+struct __attribute__((packed)) SetPositionBody {
+  uint8_t motor;
+  int32_t position;
+};
+
 static_assert(sizeof(ConfigBody) + 1 <= kMaxPayload, "config fits a frame");
+static_assert(sizeof(MoveBody) == 14 && sizeof(MoveDoneBody) == 10 && sizeof(SetPositionBody) == 5,
+              "motion bodies as PROTOCOL.md shows them");
 static_assert(sizeof(DriverBody) == 8 && sizeof(DriverActBody) == 2, "driver bodies as PROTOCOL.md shows them");
 static_assert(sizeof(StatusHead) + 1 + 5 * sizeof(StatusMotor) <= kMaxPayload, "status fits");
 
@@ -343,6 +390,57 @@ inline bool get_driver_act(const uint8_t *p, uint8_t len, DriverActBody *out) {
   if (len != 1 + sizeof(DriverActBody)) return false;
   out->motor = p[1];
   out->action = p[2];
+  return true;
+}
+
+// kMsgMove, kMsgMoveDone and kMsgSetPosition payloads, type byte included, as put_driver and
+// get_driver above.
+inline uint8_t put_move(uint8_t *p, const MoveBody &b) {
+  p[0] = kMsgMove;
+  p[1] = b.motor;
+  p[2] = b.flags;
+  put_u32(p + 3, b.steps);
+  put_u16(p + 7, b.speed_min);
+  put_u16(p + 9, b.speed_max);
+  put_u32(p + 11, b.accel);
+  return 1 + sizeof(MoveBody);
+}
+inline bool get_move(const uint8_t *p, uint8_t len, MoveBody *out) {
+  if (len != 1 + sizeof(MoveBody)) return false;
+  out->motor = p[1];
+  out->flags = p[2];
+  out->steps = get_u32(p + 3);
+  out->speed_min = get_u16(p + 7);
+  out->speed_max = get_u16(p + 9);
+  out->accel = get_u32(p + 11);
+  return true;
+}
+inline uint8_t put_move_done(uint8_t *p, const MoveDoneBody &b) {
+  p[0] = kMsgMoveDone;
+  p[1] = b.motor;
+  p[2] = b.end;
+  put_u32(p + 3, (uint32_t)b.position);
+  put_u32(p + 7, b.steps);
+  return 1 + sizeof(MoveDoneBody);
+}
+inline bool get_move_done(const uint8_t *p, uint8_t len, MoveDoneBody *out) {
+  if (len != 1 + sizeof(MoveDoneBody)) return false;
+  out->motor = p[1];
+  out->end = p[2];
+  out->position = (int32_t)get_u32(p + 3);
+  out->steps = get_u32(p + 7);
+  return true;
+}
+inline uint8_t put_set_position(uint8_t *p, const SetPositionBody &b) {
+  p[0] = kMsgSetPosition;
+  p[1] = b.motor;
+  put_u32(p + 2, (uint32_t)b.position);
+  return 1 + sizeof(SetPositionBody);
+}
+inline bool get_set_position(const uint8_t *p, uint8_t len, SetPositionBody *out) {
+  if (len != 1 + sizeof(SetPositionBody)) return false;
+  out->motor = p[1];
+  out->position = (int32_t)get_u32(p + 2);
   return true;
 }
 

@@ -33,6 +33,7 @@ __attribute__((noinline)) void Commands::on_frame(uint8_t rc) {
 // Checks one set-period entry against the board and the motor's configured range.
 uint8_t Commands::check_entry(const PeriodEntry &e) const {
   if (e.motor >= hal::motor_count()) return kErrMotor;
+  if (hal::moving() & (1u << e.motor)) return kErrBusy;
   if (e.period_q8 == kPeriodSilent) return kErrNone;
   const MotorLimits &l = limits_[e.motor];
   if (e.period_q8 < l.min_period_q8 || e.period_q8 > l.max_period_q8) return kErrPeriodRange;
@@ -85,6 +86,7 @@ uint8_t Commands::handle_config(const uint8_t *p, uint8_t len) {
   ConfigBody c;
   memcpy(&c, p, sizeof c);
   if (c.motor >= hal::motor_count()) return kErrMotor;
+  if (hal::moving() & (1u << c.motor)) return kErrBusy;
   if (c.driver > kDriverTb6600 || c.endstop_active_high > 1) return kErrConfig;
   if (c.pulse_us < cfg::kPulseUsMin || c.pulse_us > cfg::kPulseUsMax) return kErrConfig;
   if (c.min_period_q8 < kPeriodQ8Min || c.max_period_q8 > kPeriodQ8Max ||
@@ -96,6 +98,31 @@ uint8_t Commands::handle_config(const uint8_t *p, uint8_t len) {
   const uint8_t rc = hal::configure(c);
   if (rc != kErrNone) return rc;
   limits_[c.motor] = {c.min_period_q8, c.max_period_q8};
+  return kErrNone;
+}
+
+// kMsgMove (p: the whole payload): the body's ranges, then a silent motor that does not move
+// and no timed entry waiting (it could start the motor meanwhile).
+uint8_t Commands::handle_move(const uint8_t *p, uint8_t len) {
+  MoveBody b;
+  if (!get_move(p, len, &b)) return kErrLength;
+  if (b.motor >= hal::motor_count()) return kErrMotor;
+  if ((b.flags & ~(kMoveUp | kMoveToSwitch)) || b.steps == 0 || b.steps > kMaxTravelSteps ||
+      b.speed_min < kMoveSpeedMin || b.speed_max > kMoveSpeedMax || b.speed_min > b.speed_max || b.accel == 0 ||
+      b.accel > kMoveAccelMax)
+    return kErrConfig;
+  if (((hal::moving() | hal::sounding()) & (1u << b.motor)) || hal::queue_used() != 0) return kErrBusy;
+  hal::move(b);
+  return kErrNone;
+}
+
+// kMsgSetPosition (p: the whole payload).
+uint8_t Commands::handle_set_position(const uint8_t *p, uint8_t len) {
+  SetPositionBody b;
+  if (!get_set_position(p, len, &b)) return kErrLength;
+  if (b.motor >= hal::motor_count()) return kErrMotor;
+  if (hal::moving() & (1u << b.motor)) return kErrBusy;
+  hal::set_position(b.motor, b.position);
   return kErrNone;
 }
 
@@ -113,6 +140,7 @@ uint8_t Commands::handle_driver_act(const uint8_t *p, uint8_t len) {
   DriverActBody b;
   if (!get_driver_act(p, len, &b)) return kErrLength;
   if (b.motor >= hal::motor_count()) return kErrMotor;
+  if (hal::moving()) return kErrBusy;  // (a disable may reach every motor on a shared ENABLE)
   return hal::driver_act(b.motor, b.action);
 }
 
@@ -168,6 +196,12 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
       case kMsgSetId:
         rc = handle_set_id(body, n);
         break;
+      case kMsgMove:
+        rc = handle_move(p, len);
+        break;
+      case kMsgSetPosition:
+        rc = handle_set_position(p, len);
+        break;
       case kMsgResetCounters:
         if (n != 0) { rc = kErrLength; break; }
         frames_ok_ = 0;
@@ -212,6 +246,11 @@ void Commands::poll() {
     watchdog_tripped_ = true;
     hal::stop_all();
     fault(kErrWatchdog);
+  }
+  MoveDoneBody done;
+  if (hal::moving() && hal::move_ended(&done)) {
+    uint8_t buf[1 + sizeof done];
+    hal::send(buf, put_move_done(buf, done));
   }
 }
 

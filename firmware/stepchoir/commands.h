@@ -38,7 +38,7 @@ class Commands {
   // Called from: main loop. True while a frame's bytes are coming in (its delimiter not yet).
   bool in_frame() const { return decoder_.in_frame(); }
 
-  // Called from: main loop, often. Starts due timestamped entries, runs the watchdog.
+  // Called from: main loop, often. Runs the watchdog, reports late entries and ended moves.
   void poll();
 
   // Counters, for the status reply and the tests.
@@ -60,6 +60,8 @@ class Commands {
   uint8_t handle_driver(const uint8_t *p, uint8_t len);
   uint8_t handle_driver_act(const uint8_t *p, uint8_t len);
   uint8_t handle_set_id(const uint8_t *body, uint8_t n);
+  uint8_t handle_move(const uint8_t *p, uint8_t len);
+  uint8_t handle_set_position(const uint8_t *p, uint8_t len);
   void reply_id();
   uint8_t check_entry(const sc::PeriodEntry &e) const;
   void reply_caps();

@@ -1,5 +1,6 @@
 // hal.cpp: the AVR implementation of hal.h, every function: the board table (board::active),
-// the drivers (step_driver.h), the step path (scheduler.h) and the UART link (link.h). The host
+// the drivers (step_driver.h), the step path (scheduler.h), moves (moves.h) and the UART link
+// (link.h). The host
 // tests implement hal.h with a recorder (tests/firmware/fake_hal.cpp).
 // Called from: the command layer (commands.cpp), in the main loop only.
 #include "hal.h"
@@ -8,6 +9,7 @@
 
 #include "boards/board.h"
 #include "link.h"
+#include "moves.h"
 #include "scheduler.h"
 #include "step_driver.h"
 
@@ -59,6 +61,16 @@ uint8_t configure(const sc::ConfigBody &c) { return drivers::configure(c); }
 uint8_t configure_driver(const sc::DriverBody &b) { return drivers::configure_power(b); }
 
 uint8_t driver_act(uint8_t m, uint8_t action) { return drivers::act(m, action); }
+
+void move(const sc::MoveBody &b) { moves::start(b); }
+
+uint8_t moving() { return moves::moving(); }
+
+bool move_ended(sc::MoveDoneBody *out) { return moves::ended(out); }
+
+void set_position(uint8_t m, int32_t position) { sched::set_position(m, position); }
+
+uint8_t sounding() { return sched::sounding(); }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) { sched::motor_status(m, out); }
 

@@ -55,6 +55,18 @@ uint8_t configure_driver(const sc::DriverBody &b);
 // sc::kErrConfig (an unknown action, or one whose pin is not wired).
 uint8_t driver_act(uint8_t m, uint8_t action);
 
+// Moves (kMsgMove). move: starts one the caller checked (motor silent, not moving, no timed
+// entry queued), the driver woken first. moving: bit m set while motor m moves (until
+// move_ended has reported it). move_ended: a move that ended since the last call, true with its
+// reply. set_position: motor m's counted position (steps) from now on.
+void move(const sc::MoveBody &b);
+uint8_t moving();
+bool move_ended(sc::MoveDoneBody *out);
+void set_position(uint8_t m, int32_t position);
+
+// Bit m set while motor m sounds (or moves).
+uint8_t sounding();
+
 // Fills motor m's status record.
 void motor_status(uint8_t m, sc::StatusMotor *out);
 

@@ -46,6 +46,7 @@ const uint8_t kRamp = 0x08;        // onset ramp in progress
 const uint8_t kFault = 0x10;       // switch found stuck: ignored from now on
 const uint8_t kLimits = 0x20;      // soft limits on (travel configured)
 const uint8_t kRestrike = 0x40;    // a timed note change waits for its time (restrike_at)
+const uint8_t kMove = 0x80;        // a move (kMsgMove) in progress: account_move counts its steps
 
 // Mailbox states (Motor::cmd).
 const uint8_t kCmdNone = 0;
@@ -82,6 +83,11 @@ struct Motor {
   uint32_t cmd_period_q8;
   uint32_t cmd_at;
   volatile uint8_t cmd;
+  // A move (kMove): steps still to take, sc::kMoveToSwitch or 0, and how it ended (sc::MoveEnd,
+  // written when kMove is cleared).
+  uint32_t move_left;
+  uint8_t move_flags;
+  uint8_t move_end;
 };
 
 // What the motors' logic counts for the status reply; the step path's ISRs write it.
@@ -94,9 +100,42 @@ struct StepCounters {
 };
 StepCounters g_count;
 
+// Ends m's move with its motor silent (the handler then frees the channel); a command in the
+// mailbox is dropped, so the main loop's last speed change cannot start the motor again.
+SC_INLINE void end_move(Motor &m, uint8_t end) {
+  m.move_end = end;
+  m.period_q8 = 0;
+  m.flags &= (uint8_t)~(kMove | kRamp | kRestrike);
+  m.cmd = kCmdNone;
+}
+
+// True when the switch m meets going up (or down) reads pressed; false without one.
+bool pressed_ahead(const Motor &m, bool up) {
+  volatile uint8_t *sw = up ? m.sw_up_pin : m.sw_down_pin;
+  return sw && drv::switch_pressed((*sw & (up ? m.sw_up_mask : m.sw_down_mask)) != 0, m.flags & kActiveHigh);
+}
+
+// One step of a move: position counted; the move ends after its last step or, toward a
+// switch, at the first step that finds the switch ahead pressed. No bounce-back, no soft
+// limits: the carriage may be anywhere. Budget: as account_step's.
+__attribute__((noinline)) void account_move(Motor &m) {
+  const bool up = m.flags & kUp;
+  m.position += up ? 1 : -1;
+  --m.move_left;
+  if ((m.move_flags & sc::kMoveToSwitch) && pressed_ahead(m, up))
+    end_move(m, sc::kMoveEndSwitch);
+  else if (m.move_left == 0)
+    end_move(m, sc::kMoveEndSteps);
+}
+
 // Position, endstop bounce-back and soft limits after one step of m; a reversal turns DIR
-// before the motor's next step. Budget: part of the handler's bookkeeping (tens of cycles).
+// before the motor's next step (a move's step: account_move). Budget: part of the handler's
+// bookkeeping (tens of cycles).
 SC_INLINE void account_step(Motor &m) {
+  if (m.flags & kMove) {
+    account_move(m);
+    return;
+  }
   const bool up = m.flags & kUp;
   m.position += up ? 1 : -1;
   bool reverse = false;

@@ -245,6 +245,19 @@ const Ops kOps[kMotors] = {
 #endif
 };
 
+// Called from: main loop (command, start_move). Hands silent motor mi, its first deadline and
+// period set, to its channel: its first edge on m.deadline, or as soon after as the channel can
+// be armed.
+void start(uint8_t mi) {
+  Motor &m = g_motor[mi];
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    g_sounding |= (uint8_t)(1u << mi);  // its channel is busy while silent
+  }
+  // Held up past it (by the ISRs meanwhile): again, further ahead each time.
+  for (uint16_t lead = cfg::kStartLeadTicks; !kOps[mi].arm(m.deadline); lead = (uint16_t)(lead + cfg::kStartLeadTicks))
+    m.deadline = now() + lead;
+}
+
 // Called from: main loop. Motor mi takes period now, or timed at `at`. A silent motor is
 // started here (its channel is off: nothing else touches it); a sounding one gets the command
 // in its mailbox, and its channel's ISR takes it within microseconds (poke). Interrupts off
@@ -273,13 +286,7 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
   }
   m.cmd = kCmdNone;
   const bool ok = apply(m, period, timed, at);
-  if (m.period_q8 == 0) return ok;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_sounding |= bit;  // its channel is busy while silent
-  }
-  // Held up past it (by the ISRs meanwhile): again, further ahead each time.
-  for (uint16_t lead = cfg::kStartLeadTicks; !kOps[mi].arm(m.deadline); lead = (uint16_t)(lead + cfg::kStartLeadTicks))
-    m.deadline = now() + lead;
+  if (m.period_q8 != 0) start(mi);
   return ok;
 }
 
@@ -412,8 +419,9 @@ void silence_all() {
     GPIOR0 &= (uint8_t)~((1u << kMotors) - 1u);  // no visits
   }
   for (uint8_t i = 0; i < kMotors; ++i) {
+    if (g_motor[i].flags & kMove) g_motor[i].move_end = sc::kMoveEndStopped;
     g_motor[i].period_q8 = 0;
-    g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike);
+    g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike | kMove);
     g_motor[i].cmd = kCmdNone;
   }
   g_queue.clear();  // the queue's entries with them
@@ -424,6 +432,56 @@ void set_period(uint8_t m, uint32_t period_q8) { command(m, period_q8, false, 0)
 void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) { command(m, period_q8, true, at_ticks); }
 
 uint8_t sounding() { return g_sounding; }
+
+bool start_move(uint8_t mi, bool up, uint32_t steps, uint8_t move_flags, uint32_t period_q8, uint32_t at) {
+  Motor &m = g_motor[mi];
+  if (g_sounding & (uint8_t)(1u << mi)) return false;
+  set_dir(m, up);
+  m.move_left = steps;
+  m.move_flags = move_flags;
+  if ((move_flags & sc::kMoveToSwitch) && pressed_ahead(m, up)) {  // there already: no step
+    m.move_end = sc::kMoveEndSwitch;
+    return true;
+  }
+  m.flags = (uint8_t)((m.flags & ~(kRamp | kRestrike)) | kMove);
+  m.cmd = kCmdNone;
+  m.deadline = (int32_t)(at - now()) > (int32_t)cfg::kStartLeadTicks ? at : now() + cfg::kStartLeadTicks;
+  m.deadline_frac = 0;
+  m.period_q8 = period_q8;
+  start(mi);
+  return true;
+}
+
+void retune_move(uint8_t mi, uint32_t period_q8) {
+  Motor &m = g_motor[mi];
+  const uint8_t bit = (uint8_t)(1u << mi);
+  while (m.cmd != kCmdNone && (g_sounding & bit)) {
+  }
+  m.cmd_period_q8 = period_q8;  // the ISR reads the mailbox only once cmd is set
+  bool posted = false;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    if ((g_sounding & bit) && (m.flags & kMove)) {
+      m.cmd = kCmdLive;
+      posted = true;
+    }
+  }
+  if (posted) kOps[mi].poke();
+}
+
+bool move_state(uint8_t mi, uint32_t *left, uint8_t *end) {
+  const Motor &m = g_motor[mi];
+  bool moving;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {  // the motor's handler writes them
+    moving = m.flags & kMove;
+    *left = m.move_left;
+    *end = m.move_end;
+  }
+  return moving;
+}
+
+void set_position(uint8_t mi, int32_t position) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { g_motor[mi].position = position; }  // its handler counts it
+}
 
 uint8_t queue_used() { return g_queue.used; }
 

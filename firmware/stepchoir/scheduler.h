@@ -82,6 +82,22 @@ void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
 // Called from: main loop. Bit m set while motor m sounds (its channel belongs to its ISR).
 uint8_t sounding();
 
+// Moves (kMsgMove; moves.cpp drives them). Called from: main loop.
+// start_move: silent motor m steps `steps` times in direction up, its first edge at `at` (or
+// cfg::kStartLeadTicks from now when sooner), at period_q8 until retune_move changes it; with
+// sc::kMoveToSwitch in move_flags it ends at the first step that finds the switch ahead pressed
+// (with no step when it reads pressed already). No bounce-back or soft limits meanwhile. False
+// (nothing done) when the motor sounds.
+bool start_move(uint8_t m, bool up, uint32_t steps, uint8_t move_flags, uint32_t period_q8, uint32_t at);
+// retune_move: a moving motor's period from its next step on (phase kept); nothing once the move
+// ended (it never starts a motor).
+void retune_move(uint8_t m, uint32_t period_q8);
+// move_state: true while motor m moves, with the steps it has still to take; false once its
+// move ended (or it never moved), with how it ended (sc::MoveEnd) and the steps it did not take.
+bool move_state(uint8_t m, uint32_t *left, uint8_t *end);
+// set_position: motor m's counted position (steps) from now on.
+void set_position(uint8_t m, int32_t position);
+
 // Called from: main loop. The timed queue (timed_queue.h): entries in use, and one more (the
 // caller checked queue_used() < cfg::kQueueSize; entries in time order).
 uint8_t queue_used();

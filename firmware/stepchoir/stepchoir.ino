@@ -2,6 +2,7 @@
 // Board: Arduino Uno + CNC Shield V3 or Arduino Mega 2560 + RAMPS 1.4, picked by the MCU.
 #include "commands.h"
 #include "link.h"
+#include "moves.h"
 #include "scheduler.h"
 #include "step_driver.h"
 
@@ -37,8 +38,9 @@ void setup() {
   g_commands.announce();
 }
 
-// Main loop: take received bytes into the frame decoder, watchdog and late replies (poll), the
-// drivers' idle power-down (drivers::poll), a missed compare. Bytes are taken one by one, and
+// Main loop: a moving motor's next speed (moves::poll, once a step), take received bytes into
+// the frame decoder, watchdog, late and move-done replies (poll), the drivers' idle power-down
+// (drivers::poll), a missed compare. Bytes are taken one by one, and
 // once a frame has begun the loop waits for each of its bytes as it arrives (a byte every 160
 // cycles; the receive ISR takes about 75 of them for a lone byte, decoding one about 85), so a
 // frame's delimiter is handled right after its receive ISR: taken in batches between passes, a
@@ -48,6 +50,7 @@ void setup() {
 // row.
 void loop() {
   sched::poll();
+  moves::poll();
   static uint8_t deferred_passes = 0, deferred_bytes = 0;
   const uint8_t n = take_bytes(link::wait_passes(cfg::kIdleWaitTicks));
   deferred_bytes = (uint8_t)(deferred_bytes + n > 255 ? 255 : deferred_bytes + n);

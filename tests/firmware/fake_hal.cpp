@@ -35,6 +35,25 @@ uint8_t driver_act(uint8_t m, uint8_t action) {
   g_hal.acts.push_back({m, action});
   return g_hal.driver_rc;
 }
+void move(const sc::MoveBody &b) {
+  g_hal.moves.push_back(b);
+  g_hal.moving |= static_cast<uint8_t>(1u << b.motor);
+}
+uint8_t moving() { return g_hal.moving; }
+bool move_ended(sc::MoveDoneBody *out) {
+  if (g_hal.ended.empty()) return false;
+  *out = g_hal.ended.front();
+  g_hal.ended.erase(g_hal.ended.begin());
+  g_hal.moving &= static_cast<uint8_t>(~(1u << out->motor));
+  return true;
+}
+void set_position(uint8_t m, int32_t position) { g_hal.position.at(m) = position; }
+uint8_t sounding() {
+  uint8_t bits = 0;
+  for (size_t m = 0; m < g_hal.period.size(); ++m)
+    if (g_hal.period[m]) bits |= static_cast<uint8_t>(1u << m);
+  return bits;
+}
 void motor_status(uint8_t m, sc::StatusMotor *out) {
   out->position_steps = 100 * m;
   out->flags = g_hal.period[m] ? sc::kMotorSounding : 0;

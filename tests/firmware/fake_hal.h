@@ -34,6 +34,10 @@ struct FakeHal {
     return e;
   }();
   int eeprom_writes = 0;                        // hal::eeprom_write calls
+  std::vector<sc::MoveBody> moves;              // moves hal::move started
+  uint8_t moving = 0;                           // what hal::moving() reports (bit a motor)
+  std::vector<sc::MoveDoneBody> ended;          // what hal::move_ended hands out, first first
+  std::array<int32_t, 8> position{};            // what hal::set_position set
   void reset() { *this = FakeHal(); }
 };
 

@@ -48,7 +48,7 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
     INFO("PROTOCOL.md:" << v.line << " " << v.kind);
     auto &c = fresh();
     feed(c, v.wire);
-    if (v.payload[0] >= sc::kMsgCaps && v.payload[0] <= sc::kMsgId) {  // board-to-host messages are refused
+    if (v.payload[0] >= sc::kMsgCaps && v.payload[0] <= sc::kMsgMoveDone) {  // board-to-host messages are refused
       CHECK(c.frames_ok() == 0);
       CHECK(c.frames_bad() == 1);
       REQUIRE(g_hal.replies.size() == 1);
@@ -123,6 +123,19 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
       std::vector<uint8_t> none(1 + sc::kBoardIdBytes, 0);
       none[0] = sc::kMsgId;
       CHECK(g_hal.replies[0] == none);
+    } else if (v.kind == "move") {
+      REQUIRE(g_hal.moves.size() == 1);
+      const sc::MoveBody &b = g_hal.moves[0];
+      CHECK(b.motor == v.num("motor"));
+      CHECK(b.flags == v.num("flags"));
+      CHECK(b.steps == v.num("steps"));
+      CHECK(b.speed_min == v.num("speed_min"));
+      CHECK(b.speed_max == v.num("speed_max"));
+      CHECK(b.accel == v.num("accel"));
+      CHECK(g_hal.replies.empty());  // the reply comes when the move ends
+    } else if (v.kind == "set-position") {
+      CHECK(g_hal.position.at(v.num("motor")) == static_cast<int32_t>(std::stol(v.str("position"))));
+      CHECK(g_hal.replies.empty());
     } else if (v.kind == "set-id") {
       REQUIRE(g_hal.replies.size() == 1);
       CHECK(g_hal.replies[0][0] == sc::kMsgId);
@@ -406,4 +419,83 @@ TEST_CASE("driver frames: a wrong length or motor is refused before the board se
   CHECK(g_hal.replies[6][1] == sc::kErrConfig);
   CHECK(g_hal.replies[6][2] == sc::kMsgDriverAct);
   CHECK(c.frames_bad() == bad + 2);
+}
+
+TEST_CASE("a move is checked, refused while the motor sounds or moves, and answered when it ends") {
+  auto &c = fresh();
+  const sc::MoveBody good{1, sc::kMoveUp | sc::kMoveToSwitch, 4000, 400, 3200, 16000};
+  auto move = [&](sc::MoveBody b) {
+    std::vector<uint8_t> p(1 + sizeof b);
+    sc::put_move(p.data(), b);
+    g_hal.replies.clear();
+    feed(c, wire(p));
+    return g_hal.replies.empty() ? uint8_t(sc::kErrNone) : g_hal.replies.back()[1];
+  };
+  // Out of range: each field alone.
+  sc::MoveBody b = good;
+  b.motor = 4;
+  CHECK(move(b) == sc::kErrMotor);
+  const auto bad = [&](void (*spoil)(sc::MoveBody &)) {
+    sc::MoveBody x = good;
+    spoil(x);
+    return move(x);
+  };
+  CHECK(bad([](sc::MoveBody &x) { x.flags = 0x04; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.steps = 0; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.steps = sc::kMaxTravelSteps + 1; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.speed_min = sc::kMoveSpeedMin - 1; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.speed_max = sc::kMoveSpeedMax + 1; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.speed_min = 3300; }) == sc::kErrConfig);  // above speed_max
+  CHECK(bad([](sc::MoveBody &x) { x.accel = 0; }) == sc::kErrConfig);
+  CHECK(bad([](sc::MoveBody &x) { x.accel = sc::kMoveAccelMax + 1; }) == sc::kErrConfig);
+  CHECK(g_hal.moves.empty());
+  // A sounding motor, a timed entry waiting: busy.
+  g_hal.period[1] = 9309091;
+  CHECK(move(good) == sc::kErrBusy);
+  g_hal.period[1] = 0;
+  g_hal.queued = 1;
+  CHECK(move(good) == sc::kErrBusy);
+  g_hal.queued = 0;
+  CHECK(move(good) == sc::kErrNone);
+  REQUIRE(g_hal.moves.size() == 1);
+  // While it moves: another move, a note, an at entry, config, set-position and driver-act are
+  // refused; another motor plays.
+  CHECK(move(good) == sc::kErrBusy);
+  g_hal.replies.clear();
+  feed(c, wire({0x90, 0xa3, 0x0b, 0x8e}));  // motor 1, 440 Hz
+  feed_at(c, 5000, 1, 9309091);
+  sc::ConfigBody cfg = {};
+  cfg.motor = 1;
+  std::vector<uint8_t> cp(1 + sizeof cfg, sc::kMsgConfig);
+  std::memcpy(&cp[1], &cfg, sizeof cfg);
+  feed(c, wire(cp));
+  feed(c, wire({sc::kMsgSetPosition, 1, 0, 0, 0, 0}));
+  feed(c, wire({sc::kMsgDriverAct, 2, sc::kActWake}));
+  REQUIRE(g_hal.replies.size() == 5);
+  for (const auto &r : g_hal.replies) CHECK(r[1] == sc::kErrBusy);
+  CHECK(g_hal.calls.empty());
+  CHECK(g_hal.acts.empty());
+  feed(c, wire({0x80, 0xa3, 0x0b, 0x8e}));  // motor 0 plays
+  CHECK(g_hal.period[0] == 9309091);
+  // It ends: the reply comes at the next poll, once.
+  g_hal.replies.clear();
+  c.poll();
+  CHECK(g_hal.replies.empty());
+  g_hal.ended.push_back({1, sc::kMoveEndSwitch, -12, 3988});
+  c.poll();
+  c.poll();
+  REQUIRE(g_hal.replies.size() == 1);
+  sc::MoveDoneBody d{};
+  REQUIRE(sc::get_move_done(g_hal.replies[0].data(), uint8_t(g_hal.replies[0].size()), &d));
+  CHECK(d.motor == 1);
+  CHECK(d.end == sc::kMoveEndSwitch);
+  CHECK(d.position == -12);
+  CHECK(d.steps == 3988u);
+  // Then the motor takes notes and a position again.
+  g_hal.replies.clear();
+  feed(c, wire({sc::kMsgSetPosition, 1, 0x40, 0x06, 0, 0}));
+  feed(c, wire({0x90, 0xa3, 0x0b, 0x8e}));
+  CHECK(g_hal.replies.empty());
+  CHECK(g_hal.position[1] == 1600);
+  CHECK(g_hal.period[1] == 9309091);
 }

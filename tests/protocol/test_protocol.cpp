@@ -110,6 +110,25 @@ TEST_CASE("host encoders produce the spec's payloads") {
       std::vector<uint8_t> back(1 + sc::kBoardIdBytes, v.payload[0]);
       sc::put_board_id(&back[1], v.num("id"));
       CHECK(back == v.payload);
+    } else if (v.kind == "move") {
+      const sc::MoveBody b{uint8_t(v.num("motor")),      uint8_t(v.num("flags")),      uint32_t(v.num("steps")),
+                           uint16_t(v.num("speed_min")), uint16_t(v.num("speed_max")), uint32_t(v.num("accel"))};
+      CHECK(move_payload(b) == v.payload);
+      sc::MoveBody back{};
+      REQUIRE(sc::get_move(v.payload.data(), uint8_t(v.payload.size()), &back));
+      CHECK(std::memcmp(&back, &b, sizeof b) == 0);
+    } else if (v.kind == "move-done") {
+      sc::MoveDoneBody d{};
+      REQUIRE(sc::get_move_done(v.payload.data(), uint8_t(v.payload.size()), &d));
+      CHECK(d.motor == v.num("motor"));
+      CHECK(d.end == v.num("end"));
+      CHECK(d.position == std::stol(v.str("position")));
+      CHECK(d.steps == v.num("steps"));
+      std::vector<uint8_t> back(1 + sizeof d);
+      CHECK(sc::put_move_done(back.data(), d) == back.size());
+      CHECK(back == v.payload);
+    } else if (v.kind == "set-position") {
+      CHECK(set_position_payload(uint8_t(v.num("motor")), int32_t(std::stol(v.str("position")))) == v.payload);
     } else if (v.kind == "at") {
       CHECK(sc::get_u32(&v.payload[1]) == v.num("ticks"));
       sc::PeriodEntry e{};

@@ -88,6 +88,18 @@ std::vector<uint8_t> driver_act_payload(uint8_t motor, uint8_t action) {
   return p;
 }
 
+std::vector<uint8_t> move_payload(const sc::MoveBody &b) {
+  std::vector<uint8_t> p(1 + sizeof(sc::MoveBody));
+  sc::put_move(p.data(), b);
+  return p;
+}
+
+std::vector<uint8_t> set_position_payload(uint8_t motor, int32_t position) {
+  std::vector<uint8_t> p(1 + sizeof(sc::SetPositionBody));
+  sc::put_set_position(p.data(), sc::SetPositionBody{motor, position});
+  return p;
+}
+
 void Board::send(const std::vector<uint8_t> &payload) {
   const auto f = frame(payload);
   if (!link_->write(f.data(), f.size())) throw std::runtime_error(link_->name() + ": write failed");

@@ -61,6 +61,10 @@ std::vector<uint8_t> driver_payload(const sc::DriverBody &d);
 // (sc::DriverAction).
 std::vector<uint8_t> driver_act_payload(uint8_t motor, uint8_t action);
 
+// A kMsgMove payload, and a kMsgSetPosition payload: motor's counted position (steps).
+std::vector<uint8_t> move_payload(const sc::MoveBody &b);
+std::vector<uint8_t> set_position_payload(uint8_t motor, int32_t position);
+
 // Synchronous session with one board (used by the short commands: hello, tone, panic).
 // Called from: one thread. Blocks on I/O with the given timeouts.
 class Board {
