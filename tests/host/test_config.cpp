@@ -66,6 +66,38 @@ TEST_CASE("config: the commented board example, uncommented, gives the default m
   CHECK(m.power.idle == p.idle);
   CHECK(m.power.idle_ms == p.idle_ms);
   CHECK(m.power.wake_us == p.wake_us);
+  const MotionSettings ms;
+  CHECK(m.motion.steps_per_turn == ms.steps_per_turn);
+  CHECK(m.motion.steps_per_mm == ms.steps_per_mm);
+  CHECK(m.motion.acceleration == ms.acceleration);
+  CHECK(m.motion.min_speed == ms.min_speed);
+  CHECK(m.motion.max_speed == ms.max_speed);
+  CHECK(m.motion.home_speed == ms.home_speed);
+  CHECK(m.motion.backoff_mm == ms.backoff_mm);
+  CHECK_FALSE(c.home_on_start);
+}
+
+TEST_CASE("config: motion keys, a turn's steps from the microsteps, and their mistakes", "[config]") {
+  const LiveConfig c = parse_config("home_on_start = true\n[[boards]]\n[[boards.motors]]\nmicrosteps = 8\n"
+                                    "[[boards.motors]]\nsteps_per_turn = 400\nsteps_per_mm = 5.0\nacceleration = 50.0\n"
+                                    "min_speed = 2.0\nmax_speed = 90.0\nhome_speed = 7.5\nbackoff_mm = 1.5\n",
+                                    "f.toml");
+  CHECK(c.home_on_start);
+  REQUIRE(c.boards.at(0).motors.size() == 2);
+  const MotionSettings &a = c.boards[0].motors[0].motion, &b = c.boards[0].motors[1].motion;
+  CHECK(a.steps_per_turn == 1600.0);  // 200 full steps x 8
+  CHECK(a.steps_per_mm == 40.0);      // a turn is 40 mm
+  CHECK(b.steps_per_turn == 400.0);
+  CHECK(b.steps_per_mm == 5.0);
+  CHECK(b.acceleration == 50.0);
+  CHECK(b.min_speed == 2.0);
+  CHECK(b.max_speed == 90.0);
+  CHECK(b.home_speed == 7.5);
+  CHECK(b.backoff_mm == 1.5);
+  const std::string motor = "[[boards]]\n[[boards.motors]]\n";
+  CHECK(error_of(motor + "min_speed = 50.0\nmax_speed = 10.0\n") == "f.toml:3:13: min_speed must not be above max_speed");
+  CHECK(error_of(motor + "acceleration = 0.0\n") == "f.toml:3:16: acceleration: must be 1 to 100000");
+  CHECK(error_of("home_on_start = 1\n") == "f.toml:1:17: home_on_start: expected true or false");
 }
 
 TEST_CASE("config: every key is read", "[config]") {

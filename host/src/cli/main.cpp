@@ -1,5 +1,5 @@
-// main.cpp: the `stepchoir` command: hello, tone, status, panic, driver, ports, live, config,
-// gcode, play, render, jam.
+// main.cpp: the `stepchoir` command: hello, tone, status, panic, driver, home, jog, center,
+// ports, live, config, gcode, play, render, jam.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -12,6 +12,7 @@
 #include "board/link.h"
 #include "cli/gcode_command.h"
 #include "cli/live_cli.h"
+#include "cli/motion_command.h"
 #include "cli/play_command.h"
 #include "config/board_memory.h"
 #include "config/config.h"
@@ -177,6 +178,8 @@ int main(int argc, char **argv) {
       ->required()
       ->check(CLI::IsMember({"wake", "sleep", "disable", "reset"}));
 
+  const stepchoir::MotionCommands motion = stepchoir::add_motion_commands(app, board_options);
+
   std::string ports_midi_api = "alsa";
   auto *ports = app.add_subcommand("ports", "List serial ports and MIDI inputs");
   ports->add_option("--midi-api", ports_midi_api, "MIDI API whose inputs to list")->check(CLI::IsMember({"alsa", "jack"}));
@@ -268,8 +271,9 @@ int main(int argc, char **argv) {
     const stepchoir::Caps caps = board.greet();  // waits out a reset by the open (DTR)
     // Before a motor moves, the rig's settings (a TB6600's pulse, SLEEP and RESET pins).
     const stepchoir::BoardSettings *settings = stepchoir::board_settings(rig, port, 0);
-    if (settings && (app.got_subcommand(tone) || app.got_subcommand(driver)))
+    if (settings && (app.got_subcommand(tone) || app.got_subcommand(driver) || motion.parsed()))
       stepchoir::configure_motors(board, caps, *settings, port);
+    if (motion.parsed()) return motion.run(board, caps, settings, port);
     if (app.got_subcommand(hello)) {
       print_caps(caps);
       print_identity(board);

@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -49,7 +50,11 @@ double get_number(const std::string &source, const toml::table &t, const char *k
   if (!n) return fallback;
   const auto v = n->value<double>();
   if (!v || !std::isfinite(*v)) fail(source, *n, std::string(key) + ": expected a number");
-  if (*v < lo || *v > hi) fail(source, *n, std::string(key) + ": must be " + std::to_string(lo) + " to " + std::to_string(hi));
+  if (*v < lo || *v > hi) {
+    char range[64];
+    std::snprintf(range, sizeof range, "%g to %g", lo, hi);
+    fail(source, *n, std::string(key) + ": must be " + range);
+  }
   return *v;
 }
 
@@ -85,12 +90,29 @@ sc::DriverBody read_power(const std::string &source, const toml::table &t, uint8
   return p;
 }
 
+// Called from: read_motor. The motion keys of one [[boards.motors]] entry: a turn is 200 full
+// steps unless steps_per_turn says otherwise, and 40 mm (a GT2 belt on a 20-tooth pulley)
+// unless steps_per_mm does.
+MotionSettings read_motion(const std::string &source, const toml::table &t, uint8_t microsteps) {
+  MotionSettings ms;
+  ms.steps_per_turn = get_number(source, t, "steps_per_turn", 1, 1e6, 200.0 * microsteps);
+  ms.steps_per_mm = get_number(source, t, "steps_per_mm", 0.01, 1e5, ms.steps_per_turn / 40.0);
+  ms.acceleration = get_number(source, t, "acceleration", 1, 1e5, ms.acceleration);
+  ms.min_speed = get_number(source, t, "min_speed", 0.01, 1e4, ms.min_speed);
+  ms.max_speed = get_number(source, t, "max_speed", 0.01, 1e4, ms.max_speed);
+  ms.home_speed = get_number(source, t, "home_speed", 0.01, 1e4, ms.home_speed);
+  ms.backoff_mm = get_number(source, t, "backoff_mm", 0, 100, ms.backoff_mm);
+  if (ms.min_speed > ms.max_speed) fail(source, *t.get("min_speed"), "min_speed must not be above max_speed");
+  return ms;
+}
+
 // Called from: parse_config for each [[boards.motors]] entry.
 MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_t index) {
   known_keys(source, t,
              {"driver", "microsteps", "endstop_active_high", "travel_steps", "pulse_us", "lowest_note", "highest_note",
               "transpose", "tuning_cents", "muted", "mono_channel", "sleep_pin", "reset_pin", "idle", "idle_ms",
-              "wake_us"},
+              "wake_us", "steps_per_mm", "steps_per_turn", "acceleration", "min_speed", "max_speed", "home_speed",
+              "backoff_mm"},
              "[[boards.motors]]");
   MotorSettings m;
   m.hardware = default_motor_hardware(index);
@@ -110,6 +132,7 @@ MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_
                                                           m.hardware.travel_steps));
   m.hardware.pulse_us = static_cast<uint8_t>(get_int(source, t, "pulse_us", 2, 10, m.hardware.pulse_us));
   m.power = read_power(source, t, index, m.hardware.driver);
+  m.motion = read_motion(source, t, m.hardware.microsteps);
   m.music.lowest_note = static_cast<uint8_t>(get_int(source, t, "lowest_note", 0, 127, m.music.lowest_note));
   m.music.highest_note = static_cast<uint8_t>(get_int(source, t, "highest_note", 0, 127, m.music.highest_note));
   if (m.music.lowest_note > m.music.highest_note)
@@ -172,9 +195,13 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     throw std::runtime_error(source + ":" + std::to_string(e.source().begin.line) + ":" +
                              std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
-  known_keys(source, root, {"a4_hz", "midi", "allocation", "vibrato", "boards"}, "the top level");
+  known_keys(source, root, {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "boards"}, "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
+  if (const toml::node *n = root.get("home_on_start")) {
+    if (!n->is_boolean()) fail(source, *n, "home_on_start: expected true or false");
+    c.home_on_start = *n->value<bool>();
+  }
   if (const toml::node *n = root.get("midi")) {
     const toml::table *t = n->as_table();
     if (!t) fail(source, *n, "[midi] must be a table");
@@ -256,6 +283,9 @@ const char *default_config_text() {
 
 # Tuning reference: the frequency of A4 (MIDI note 69), Hz.
 a4_hz = 440.0
+# true: live, play and jam home every motor with end switches first (`stepchoir home`), so each
+# carriage starts in the middle of its rail.
+home_on_start = false
 
 [midi]
 # MIDI input: its index, part of its name, or "virtual" / "virtual:NAME" for a port that other
@@ -314,6 +344,15 @@ aftertouch = false
 # idle_ms = 1000             # silence before the idle power-down, 0 to 65535 ms
 # wake_us = 1000             # the driver's wake-up time, waited before a woken motor's first
 #                            #   step: 0 to 2500 us (default a4988 1000, drv8825 1700, tb6600 5)
+# Motion (`stepchoir home`, `jog`, `center`), the seed's StepDriver ramp v^2 = v0^2 + 2as:
+# steps_per_turn = 3200      # microsteps a turn (default 200 x microsteps)
+# steps_per_mm = 80.0        # microsteps a mm of carriage travel (default steps_per_turn / 40:
+#                            #   a GT2 belt on a 20-tooth pulley)
+# acceleration = 500.0       # mm/s^2
+# min_speed = 5.0            # mm/s: a move's first and last steps
+# max_speed = 40.0           # mm/s (the board steps at most 5,000 steps/s)
+# home_speed = 20.0          # mm/s toward a switch while homing (the second touch: a quarter)
+# backoff_mm = 2.0           # off a switch once it fired
 )";
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "board/motion.h"
 #include "live/allocator.h"
 #include "stepchoir_protocol.h"
 
@@ -22,6 +23,7 @@ struct MotorSettings {
   sc::DriverBody power{};     // SLEEP and RESET pins, idle power-down, wake time (kMsgDriver)
   MotorConfig music;
   int8_t mono_channel = 0;    // policy mono: the MIDI channel (0-15) whose group the motor is in
+  MotionSettings motion;      // moves: home, jog, center
 };
 
 struct BoardSettings {
@@ -36,6 +38,7 @@ struct LiveConfig {
   Priority priority = Priority::kOldest;
   bool sing_percussion = false;  // [allocation] sing_percussion: drum channels' notes as pitches
   double a4_hz = kA4Hz;
+  bool home_on_start = false;     // live, play and jam home the motors with switches first
   VibratoConfig vibrato;          // [vibrato]: the mod wheel's
   std::vector<BoardSettings> boards;
 };

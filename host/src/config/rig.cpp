@@ -3,6 +3,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -62,6 +63,33 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
         (code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
          : driver && code == sc::kErrConfig ? " (a pin the board lacks or uses already?)"
                                            : ""));
+  }
+}
+
+uint32_t motor_travel(const BoardSettings *settings, uint8_t motor) {
+  return (settings && motor < settings->motors.size() ? settings->motors[motor].hardware : default_motor_hardware(motor))
+      .travel_steps;
+}
+
+MotionSettings motor_motion(const BoardSettings *settings, uint8_t motor) {
+  return settings && motor < settings->motors.size() ? settings->motors[motor].motion : MotionSettings{};
+}
+
+void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
+                const std::vector<int> &motors, const std::function<void(const std::string &)> &say) {
+  for (uint8_t m = 0; m < caps.motor_count; ++m) {
+    const bool asked = std::find(motors.begin(), motors.end(), int(m)) != motors.end();
+    if (!motors.empty() && !asked) continue;
+    const bool switches = m < caps.endstops.size() && (caps.endstops[m] & (sc::kEndstopMin | sc::kEndstopMax));
+    if (!switches && !asked) {
+      say(port + ": motor " + std::to_string(m) + " has no end switch: not homed (jog and center set it by eye)");
+      continue;
+    }
+    const HomeResult h = home_motor(board, caps, port, m, motor_travel(settings, m), motor_motion(settings, m), say);
+    if (h.measured && std::abs(h.travel_steps - int32_t(motor_travel(settings, m))) > h.travel_steps / 50)
+      say(port + ": motor " + std::to_string(m) + ": the rail measures " + std::to_string(h.travel_steps) +
+          " steps between its switches; the configuration says travel_steps = " +
+          std::to_string(motor_travel(settings, m)) + ": set it to " + std::to_string(h.travel_steps));
   }
 }
 

@@ -7,6 +7,7 @@
 #ifndef STEPCHOIR_HOST_CONFIG_RIG_H
 #define STEPCHOIR_HOST_CONFIG_RIG_H
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,18 @@ std::string rig_port(const Rig &rig, const std::string &port);
 // board's motor count); throws naming the port, the motor and the board's error when it refuses
 // one. Called from: every command that plays notes, after hello, before the first note.
 void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port);
+
+// Homes every motor of the board that has an end switch (board/motion.h home_motor), with the
+// file's travel and motion settings where `settings` lists the motor; `motors` empty: all of
+// them, else those. A motor without switches is skipped with a line to `say` unless asked for
+// by name (then home_motor throws). Called from: `stepchoir home`, and live, play and jam when
+// the file sets home_on_start, after configure_motors.
+void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
+                const std::vector<int> &motors, const std::function<void(const std::string &)> &say);
+
+// One motor's travel (steps) and motion settings: the file's, else the defaults.
+uint32_t motor_travel(const BoardSettings *settings, uint8_t motor);
+MotionSettings motor_motion(const BoardSettings *settings, uint8_t motor);
 
 // The planner's and allocator's view of the board's motors `ids`: each one's musical settings
 // from the file (range, transpose, tuning, mutes) and the board's clock (Hz). Motors the file

@@ -274,6 +274,7 @@ int run(const Options &options, FILE *real_stdout) {
   settings.switch_active_low = options.switch_active_low;
   settings.chatter_cycles = options.chatter_us * (board.f_cpu_hz / 1000000);
   settings.stuck_switch_motor = options.stuck_switch_motor;
+  settings.dead_switch_motor = options.dead_switch_motor;
   settings.seed = options.seed;
   settings.wake_cycles = options.wake_us * (board.f_cpu_hz / 1000000);
   VirtualBoard model(board, settings, trace);

@@ -52,6 +52,7 @@ const char *usage_text() {
          "          [--no-pacing | --speed X] [--seconds S] [--trace FILE.csv] [--eeprom FILE]\n"
          "          [--travel-steps N]\n"
          "          [--start-position N] [--switch-active high|low] [--chatter-us N] [--stuck-switch M]\n"
+         "          [--dead-switch M]\n"
          "          [--sleep-pin M=PIN] [--reset-pin M=PIN] [--wake-us N]\n"
          "          [--seed N] [--line-drop P] [--line-corrupt P] [--line-duplicate P]\n"
          "          [--link-model ideal|16u2|ftdi|ch340] [--ftdi-latency-ms N]\n"
@@ -71,6 +72,7 @@ const char *usage_text() {
          "  --switch-active L   level of a pressed end switch (default low)\n"
          "  --chatter-us N      contact bounce after each switch change, spread over N us\n"
          "  --stuck-switch M    the switches of motor M read pressed all the time (a fault)\n"
+         "  --dead-switch M     the switches of motor M never read pressed (a broken wire)\n"
          "  --sleep-pin M=PIN   motor M's driver SLEEP input is wired to Arduino pin PIN (repeatable)\n"
          "  --reset-pin M=PIN   motor M's driver RESET input is wired to Arduino pin PIN (repeatable)\n"
          "  --wake-us N         a driver takes steps N us after its SLEEP rose (default 1000); a step\n"
@@ -183,14 +185,14 @@ bool parse_options(int argc, char **argv, Options &options, std::string &error) 
         return false;
       }
       options.switch_active_low = value == "low";
-    } else if (arg == "--stuck-switch") {
+    } else if (arg == "--stuck-switch" || arg == "--dead-switch") {
       int64_t motor = 0;
       if (!value_of(value)) return false;
       if (!parse_int(value, motor) || motor < 0 || motor > 7) {
-        error = "--stuck-switch needs a motor index 0-7";
+        error = arg + " needs a motor index 0-7";
         return false;
       }
-      options.stuck_switch_motor = static_cast<int>(motor);
+      (arg == "--stuck-switch" ? options.stuck_switch_motor : options.dead_switch_motor) = static_cast<int>(motor);
     } else if (arg == "--sleep-pin" || arg == "--reset-pin") {
       Options::MotorPin mp{};
       if (!value_of(value)) return false;

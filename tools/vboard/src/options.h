@@ -25,6 +25,7 @@ struct Options {
   bool switch_active_low = true;
   uint64_t chatter_us = 0;
   int stuck_switch_motor = -1;  // --stuck-switch M: motor M's switches stay pressed
+  int dead_switch_motor = -1;   // --dead-switch M: motor M's switches never close
   struct MotorPin {
     int motor;
     int arduino;

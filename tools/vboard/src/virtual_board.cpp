@@ -64,14 +64,17 @@ VirtualBoard::VirtualBoard(const BoardConfig &board, const ModelSettings &settin
 
 // Presses the switches a start position already touches (no chatter at power-up).
 void VirtualBoard::settle_initial_switches() {
-  for (SwitchInput &input : switches_) {
-    bool pressed = false;
-    for (const SwitchInput::User &user : input.users) {
-      const Carriage &c = motors_[user.motor].carriage;
-      pressed = pressed || (user.max_end ? c.at_max() : c.at_min()) || int(user.motor) == settings_.stuck_switch_motor;
-    }
-    input.contact.reset_to(pressed);
+  for (SwitchInput &input : switches_) input.contact.reset_to(switch_closed(input));
+}
+
+bool VirtualBoard::switch_closed(const SwitchInput &input) const {
+  bool pressed = false;
+  for (const SwitchInput::User &user : input.users) {
+    const Carriage &c = motors_[user.motor].carriage;
+    if (int(user.motor) == settings_.dead_switch_motor) continue;
+    pressed = pressed || (user.max_end ? c.at_max() : c.at_min()) || int(user.motor) == settings_.stuck_switch_motor;
   }
+  return pressed;
 }
 
 // Output pin watched_index changed to level at cycle.
@@ -144,11 +147,7 @@ void VirtualBoard::update_switches_of(unsigned motor, uint64_t cycle) {
 // Re-evaluates one switch input: pressed if any end it serves is reached.
 void VirtualBoard::update_switch(size_t switch_index, uint64_t cycle) {
   SwitchInput &input = switches_[switch_index];
-  bool pressed = false;
-  for (const SwitchInput::User &user : input.users) {
-    const Carriage &c = motors_[user.motor].carriage;
-    pressed = pressed || (user.max_end ? c.at_max() : c.at_min()) || int(user.motor) == settings_.stuck_switch_motor;
-  }
+  const bool pressed = switch_closed(input);
   if (!input.contact.set_pressed(pressed, cycle)) return;
   ++motors_[input.trace_motor].endstop_changes;
   trace_.endstop(input.trace_motor, cycle, pressed, motors_[input.trace_motor].carriage.position_steps());

@@ -30,6 +30,7 @@ struct ModelSettings {
   bool switch_active_low = true;
   uint64_t chatter_cycles = 0;
   int stuck_switch_motor = -1;  // the switches serving this motor read pressed all the time
+  int dead_switch_motor = -1;   // the switches serving this motor never read pressed
   uint64_t seed = 1;
   // Level an undriven ENABLE pin has (pull-up on the CNC shield: drivers start disabled).
   bool enable_idle_level = true;
@@ -98,6 +99,8 @@ class VirtualBoard {
 
   // Presses the switches a start position already touches (call once, before running).
   void settle_initial_switches();
+  // Whether switch input `input` reads pressed: an end one of its motors reached, or a fault.
+  bool switch_closed(const SwitchInput &input) const;
   // Output pin watched_index changed to level at cycle.
   void on_output_pin(size_t watched_index, bool level, uint64_t cycle);
   // Applies switch pin events due at cycle.

@@ -1,0 +1,163 @@
+// test_motion.cpp: moves on the real firmware, end to end: `stepchoir home` brings carriages
+// that start at either end or off centre to the middle of the rail on both boards, a switch
+// that never fires stops the motor with a clear error, and `jog` follows the seed's Torricelli
+// ramp, checked step by step from the trace in board cycles.
+//
+// The boards run in real time: the host feeds the watchdog while a motor moves, and a machine
+// that stalls the simulation past the watchdog's 300 ms stops the move (hence [pacing]).
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "play_checks.h"
+#include "trace.h"
+#include "vboard_process.h"
+
+using namespace stepchoir;
+using namespace play_checks;
+namespace tr = sc::trace;
+
+namespace {
+
+const int64_t kTravel = 3200;  // the virtual board's rail and the configuration's travel_steps
+
+// A rig file for the board at `port`: four motors with the given motion keys.
+std::string motion_config(const std::string &name, const std::string &port, const std::string &keys) {
+  const std::string file = scratch(name + ".toml");
+  std::ofstream f(file);
+  f << "[[boards]]\nport = \"" << port << "\"\n";
+  for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << kTravel << "\n" << keys;
+  return file;
+}
+
+// The carriage's position after motor m's last step (its start when it never stepped).
+int64_t final_position(const tr::Trace &t, size_t m, int64_t start) {
+  const auto &s = t.motor.at(m).steps;
+  return s.empty() ? start : s.back().position;
+}
+
+}  // namespace
+
+TEST_CASE("home: carriages at either end or off centre end in the middle, the rail measured", "[play][pacing]") {
+  struct Case {
+    const char *board;
+    int64_t start;
+    std::vector<std::string> motors;  // --motor options
+    std::vector<size_t> homed;
+  };
+  const Case cases[] = {
+      {"mega", 0, {"--motor", "0"}, {0}},                     // min and max switches: at the min end
+      {"mega", kTravel, {"--motor", "1"}, {1}},               // at the max end
+      {"mega", 700, {}, {0, 1, 2}},                           // off centre: every motor with switches
+      {"uno", kTravel - 100, {"--motor", "2"}, {2}},          // one input for both ends
+  };
+  for (const Case &c : cases) {
+    INFO(c.board << " from " << c.start);
+    const std::string trace_path = scratch("home.csv");
+    VboardProcess vb({"--board", c.board, "--trace", trace_path, "--quiet", "--no-measure", "--start-position",
+                      std::to_string(c.start)});
+    const std::string config = motion_config("home", vb.pty(), "home_speed = 30.0\n");
+    std::vector<std::string> args{"home", "--port", vb.pty(), "--config", config};
+    args.insert(args.end(), c.motors.begin(), c.motors.end());
+    int status = -1;
+    const std::string out = run_stepchoir(args, &status);
+    INFO(out);
+    REQUIRE(status == 0);
+    REQUIRE(vb.stop() == 0);
+    const tr::Trace t = tr::read_trace(trace_path);
+    for (size_t m = 0; m < t.motors; ++m) {
+      INFO("motor " << m);
+      const bool homed = std::find(c.homed.begin(), c.homed.end(), m) != c.homed.end();
+      if (!homed) {
+        CHECK(t.motor[m].steps.empty());  // the others stay where they are
+        continue;
+      }
+      CHECK(final_position(t, m, c.start) == kTravel / 2);
+      // It touched a switch and, with both ends switched, the other one: the travel measured.
+      CHECK(t.motor[m].endstop_changes.size() >= (std::string(c.board) == "mega" ? 4u : 4u));
+      CHECK(out.find("motor " + std::to_string(m) + ": in the middle, position 1600") != std::string::npos);
+      CHECK(out.find("travel 3200 steps") != std::string::npos);
+      int64_t lo = c.start, hi = c.start;
+      for (const tr::Step &s : t.motor[m].steps) lo = std::min(lo, s.position), hi = std::max(hi, s.position);
+      CHECK(lo == 0);  // it stopped on the step that reached each switch: no run past the rail
+      CHECK(hi == kTravel);
+    }
+  }
+}
+
+TEST_CASE("home: a switch that never fires is reported, and the motor stops within its search", "[play][pacing]") {
+  const std::string trace_path = scratch("home-dead.csv");
+  VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--dead-switch", "0"});
+  const std::string config = motion_config("home-dead", vb.pty(), "home_speed = 40.0\n");
+  // Its stderr with its stdout, through a shell.
+  ChildProcess p({"/bin/sh", "-c",
+                  std::string("exec '") + STEPCHOIR_BIN + "' home --port '" + vb.pty() + "' --config '" + config +
+                      "' --motor 0 2>&1"},
+                 true);
+  const std::string out = p.read_rest(60000);
+  INFO(out);
+  CHECK(p.wait() == 1);
+  CHECK(out.find("motor 0: the min switch did not fire within 4000 steps (50.0 mm): the motor stopped") !=
+        std::string::npos);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // nothing more moves after the exit
+  REQUIRE(vb.stop() == 0);
+  const tr::Trace t = tr::read_trace(trace_path);
+  const auto &s = t.motor[0].steps;
+  REQUIRE_FALSE(s.empty());
+  const int64_t search = kTravel + kTravel / 4;
+  CHECK(int64_t(s.size()) == search);  // down the whole search, not a step more
+  CHECK(s.back().position == kTravel / 2 - search);
+  CHECK(t.motor[0].endstop_changes.empty());
+}
+
+TEST_CASE("jog: the move follows the Torricelli ramp, v^2 = v0^2 + 2as, up, at speed, and down", "[play][pacing]") {
+  const std::string trace_path = scratch("jog.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  // 80 steps/mm: v0 400 steps/s, vmax 3,200 steps/s, a = 16,000 steps/s^2.
+  const std::string config = motion_config("jog", vb.pty(),
+                                           "steps_per_mm = 80.0\nmin_speed = 5.0\nmax_speed = 40.0\nacceleration = 200.0\n");
+  const int64_t steps = 1500;
+  int status = -1;
+  const std::string out = run_stepchoir(
+      {"jog", "--port", vb.pty(), "--config", config, "--motor", "3", "--steps", std::to_string(-steps)}, &status);
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("moved 1500 steps") != std::string::npos);
+  REQUIRE(vb.stop() == 0);
+  const tr::Trace t = tr::read_trace(trace_path);
+  const auto &s = t.motor[3].steps;
+  REQUIRE(int64_t(s.size()) == steps);
+  CHECK(s.back().position == kTravel / 2 - steps);
+  const double v0 = 400, vmax = 3200, a = 16000;
+  // Each interval's speed against the ramp's (rounded down to whole steps/s, as the firmware
+  // does); an edge a few cycles late (an ISR ahead of it) shortens the next interval as much.
+  double worst = 0, sum_err = 0, took = 0, ideal = 0, cruise_time = 0;
+  size_t cruise_steps = 0;
+  for (size_t i = 0; i + 1 < s.size(); ++i) {
+    const double dt = double(s[i + 1].rise_cycle - s[i].rise_cycle) / t.f_cpu_hz;
+    const double done = double(i + 1), left = double(steps) - done;
+    const double want = std::min(vmax, std::floor(std::sqrt(v0 * v0 + 2 * a * (std::min(done, left) - 1))));
+    const double err = (1.0 / dt - want) / want;
+    worst = std::max(worst, std::fabs(err));
+    sum_err += std::fabs(err);
+    took += dt;
+    ideal += 1.0 / want;
+    if (want == vmax) cruise_time += dt, ++cruise_steps;
+  }
+  const double cruise = double(cruise_steps) / cruise_time;
+  std::printf("jog ramp: %lld steps in %.4f s (the ramp's %.4f s), %zu steps at %.2f steps/s (%.0f asked), speed "
+              "error per step: worst %.3f %%, mean %.4f %%\n",
+              (long long)steps, took, ideal, cruise_steps, cruise, vmax, 100 * worst, 100 * sum_err / double(s.size() - 1));
+  CHECK(std::fabs(took - ideal) / ideal < 0.002);
+  CHECK(cruise_steps == size_t(steps - 1 - 2 * 315));  // 315 steps up to speed (2an = vmax^2 - v0^2), as many down
+  CHECK(cruise == Approx(vmax).epsilon(0.0005));
+  CHECK(sum_err / double(s.size() - 1) < 0.002);
+  CHECK(worst < 0.08);  // (the speed of a step lags by one where the main loop was late)
+}
