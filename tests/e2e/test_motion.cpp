@@ -28,11 +28,13 @@ namespace {
 
 const int64_t kTravel = 3200;  // the virtual board's rail and the configuration's travel_steps
 
-// A rig file for the board at `port`: four motors with the given motion keys.
-std::string motion_config(const std::string &name, const std::string &port, const std::string &keys) {
+// A rig file for the board at `port`: top-level keys `top`, four motors with the motion keys
+// `keys`.
+std::string motion_config(const std::string &name, const std::string &port, const std::string &keys,
+                          const std::string &top = "") {
   const std::string file = scratch(name + ".toml");
   std::ofstream f(file);
-  f << "[[boards]]\nport = \"" << port << "\"\n";
+  f << top << "[[boards]]\nport = \"" << port << "\"\n";
   for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << kTravel << "\n" << keys;
   return file;
 }
@@ -160,4 +162,32 @@ TEST_CASE("jog: the move follows the Torricelli ramp, v^2 = v0^2 + 2as, up, at s
   CHECK(cruise == Approx(vmax).epsilon(0.0005));
   CHECK(sum_err / double(s.size() - 1) < 0.002);
   CHECK(worst < 0.08);  // (the speed of a step lags by one where the main loop was late)
+}
+
+TEST_CASE("home_on_start: play homes the switched carriages, then plays the song", "[play][pacing]") {
+  const std::string trace_path = scratch("home-play.csv");
+  VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--start-position", "0"});
+  const std::string top = motion_config("home-play", vb.pty(), "home_speed = 40.0\n", "home_on_start = true\n");
+  const std::string song = write_test_song("home-play.mid");
+  int status = -1;
+  const std::string out = run_stepchoir({"play", song, "--port", vb.pty(), "--config", top, "--quiet"}, &status);
+  INFO(out);
+  REQUIRE(status == 0);
+  REQUIRE(vb.stop() == 0);
+  const tr::Trace t = tr::read_trace(trace_path);
+  for (int m = 0; m < 3; ++m) {
+    INFO("motor " << m);
+    CHECK(out.find("motor " + std::to_string(m) + ": in the middle, position 1600") != std::string::npos);
+    // Homing's last move ends in the middle; the song's first step comes after it.
+    const auto &s = t.motor[size_t(m)].steps;
+    size_t last_home = 0;
+    while (last_home + 1 < s.size() && s[last_home + 1].rise_cycle - s[last_home].rise_cycle < t.f_cpu_hz / 10)
+      ++last_home;  // the homing moves follow each other within 100 ms
+    REQUIRE(last_home < s.size());
+    bool reached_max = false;
+    for (size_t i = 0; i <= last_home; ++i) reached_max = reached_max || s[i].position == kTravel;
+    CHECK(reached_max);
+    CHECK(s[last_home].position == kTravel / 2);
+  }
+  CHECK(out.find("motor 3 has no end switch: not homed") != std::string::npos);
 }

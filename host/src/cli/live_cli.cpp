@@ -163,8 +163,9 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
     const Caps caps = vboard ? boards.back()->hello() : boards.back()->greet();  // its own board does not reset
-    if (const BoardSettings *settings = board_settings(rig, ports[b], b))
-      configure_motors(*boards.back(), caps, *settings, ports[b]);
+    const BoardSettings *settings = board_settings(rig, ports[b], b);
+    if (settings) configure_motors(*boards.back(), caps, *settings, ports[b]);
+    if (cfg.home_on_start) home_board(*boards.back(), caps, settings, ports[b], {}, say_line);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }
   AllocatorConfig alloc = pool_config(pool, policy);

@@ -33,10 +33,6 @@ MotionCommands add_motion_commands(CLI::App &app, const std::function<void(CLI::
 }
 
 int MotionCommands::run(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port) const {
-  auto say = [](const std::string &line) {
-    std::printf("%s\n", line.c_str());
-    std::fflush(stdout);
-  };
   board.send(watchdog_payload(sc::kWatchdogDefaultMs));  // a move stops if this program dies
   if (home->parsed()) {
     for (int m : motors)
@@ -44,7 +40,7 @@ int MotionCommands::run(Board &board, const Caps &caps, const BoardSettings *set
         std::fprintf(stderr, "stepchoir home: --motor %d: the board has motors 0-%d\n", m, caps.motor_count - 1);
         return 2;
       }
-    home_board(board, caps, settings, port, motors, say);
+    home_board(board, caps, settings, port, motors, say_line);
     return 0;
   }
   if (motor < 0 || motor >= caps.motor_count) {
@@ -61,7 +57,7 @@ int MotionCommands::run(Board &board, const Caps &caps, const BoardSettings *set
       std::fprintf(stderr, "stepchoir center: the board refused: %s\n", sc::error_name((*err)[1]));
       return 1;
     }
-    say(port + ": motor " + std::to_string(m) + ": the carriage is the middle of its rail, position " +
+    say_line(port + ": motor " + std::to_string(m) + ": the carriage is the middle of its rail, position " +
         std::to_string(middle));
     return 0;
   }
@@ -69,12 +65,12 @@ int MotionCommands::run(Board &board, const Caps &caps, const BoardSettings *set
   const int64_t n = std::llround(want);
   const MoveResult r = move_motor(board, port, m, n, ms.max_speed, ms, !ignore_switch);
   if (r.end == sc::kMoveEndSwitch) {
-    say(port + ": motor " + std::to_string(m) + ": stopped at the switch ahead after " + std::to_string(r.steps) +
+    say_line(port + ": motor " + std::to_string(m) + ": stopped at the switch ahead after " + std::to_string(r.steps) +
         " of " + std::to_string(std::llabs(n)) + " steps (" + mm_text(r.steps, ms) + ")" +
         (r.steps <= 1 ? ": it reads pressed; --ignore-switch moves off it" : ""));
     return 0;
   }
-  say(port + ": motor " + std::to_string(m) + ": moved " + std::to_string(r.steps) + " steps (" + mm_text(r.steps, ms) +
+  say_line(port + ": motor " + std::to_string(m) + ": moved " + std::to_string(r.steps) + " steps (" + mm_text(r.steps, ms) +
       "), position " + std::to_string(r.position));
   return 0;
 }

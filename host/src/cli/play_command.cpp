@@ -279,6 +279,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (vbs.empty() && !rendering) recall(cmd, r.path, *r.board, &r.id, &r.known);
       r.settings = board_settings(rig, r.path, b);
       if (r.settings) configure_motors(*r.board, r.caps, *r.settings, r.path);
+      if (rig.config.home_on_start && !rendering) home_board(*r.board, r.caps, r.settings, r.path, {}, say_line);
       for (uint8_t m = 0; m < r.caps.motor_count; ++m)
         if (!jamming || std::find(song_motors.begin(), song_motors.end(), m) != song_motors.end()) r.song_ids.push_back(m);
       boards.push_back(std::move(r));

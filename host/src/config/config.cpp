@@ -276,7 +276,7 @@ LiveConfig load_config(const std::string &path) {
 
 const char *default_config_text() {
   return R"(# stepchoir rig configuration, read by every command that talks to a board (live, play, jam,
-# render, tone, driver, hello, status, panic): --config FILE, else this file at
+# render, tone, driver, home, jog, center, hello, status, panic): --config FILE, else this file at
 # $XDG_CONFIG_HOME/stepchoir/stepchoir.toml (~/.config/stepchoir/stepchoir.toml); `stepchoir
 # config --where` prints it. Every key is optional: what is left out keeps the value shown.
 # Command-line options (--midi, --midi-api, --policy, --port) override the file.

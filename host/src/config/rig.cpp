@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -64,6 +65,11 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
          : driver && code == sc::kErrConfig ? " (a pin the board lacks or uses already?)"
                                            : ""));
   }
+}
+
+void say_line(const std::string &line) {
+  std::printf("%s\n", line.c_str());
+  std::fflush(stdout);
 }
 
 uint32_t motor_travel(const BoardSettings *settings, uint8_t motor) {

@@ -61,6 +61,9 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
 void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
                 const std::vector<int> &motors, const std::function<void(const std::string &)> &say);
 
+// Prints a line and flushes stdout: home_board's `say` for the commands.
+void say_line(const std::string &line);
+
 // One motor's travel (steps) and motion settings: the file's, else the defaults.
 uint32_t motor_travel(const BoardSettings *settings, uint8_t motor);
 MotionSettings motor_motion(const BoardSettings *settings, uint8_t motor);
