@@ -112,6 +112,16 @@ inline std::string run_stepchoir(const std::vector<std::string> &args, int *stat
   return out;
 }
 
+// Runs `stepchoir args...` to its end through a shell; its stdout and stderr together.
+inline std::string run_stepchoir_all(const std::vector<std::string> &args, int *status) {
+  std::string cmd = std::string("exec '") + STEPCHOIR_BIN + "'";
+  for (const std::string &a : args) cmd += " '" + a + "'";
+  ChildProcess p({"/bin/sh", "-c", cmd + " 2>&1"}, true);
+  const std::string out = p.read_rest(60000);
+  *status = p.wait();
+  return out;
+}
+
 inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
   std::printf("%s: %zu notes turned round; ", what, c.turned);
   std::printf("%s: %zu/%zu notes, onset error p50 %.1f us p99 %.1f us max %.1f us, tempo %+.1f ppm, pitch worst "

@@ -98,14 +98,10 @@ TEST_CASE("home: a switch that never fires is reported, and the motor stops with
   const std::string trace_path = scratch("home-dead.csv");
   VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--dead-switch", "0"});
   const std::string config = motion_config("home-dead", vb.pty(), "home_speed = 40.0\n");
-  // Its stderr with its stdout, through a shell.
-  ChildProcess p({"/bin/sh", "-c",
-                  std::string("exec '") + STEPCHOIR_BIN + "' home --port '" + vb.pty() + "' --config '" + config +
-                      "' --motor 0 2>&1"},
-                 true);
-  const std::string out = p.read_rest(60000);
+  int status = -1;
+  const std::string out = run_stepchoir_all({"home", "--port", vb.pty(), "--config", config, "--motor", "0"}, &status);
   INFO(out);
-  CHECK(p.wait() == 1);
+  CHECK(status == 1);
   CHECK(out.find("motor 0: the min switch did not fire within 4000 steps (50.0 mm): the motor stopped") !=
         std::string::npos);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // nothing more moves after the exit

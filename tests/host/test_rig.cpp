@@ -13,6 +13,7 @@
 
 #include "config/board_memory.h"
 #include "config/rig.h"
+#include "live/realtime_setup.h"
 
 using namespace stepchoir;
 
@@ -160,4 +161,25 @@ TEST_CASE("board memory: a broken file names its line and column", "[config]") {
                                                   "(numbers, sigma_ppm >= 0)");
   std::ofstream(path) << "[boards\n";
   CHECK_THROWS_WITH(recall_board(1, path), Catch::StartsWith(path + ":1:"));
+}
+
+TEST_CASE("rig: real-time limits allow SCHED_FIFO and memory locking as the limits say", "[config]") {
+  RealtimeLimits l;
+  l.rtprio = 0;
+  l.memlock_bytes = 8u << 20;
+  CHECK_FALSE(priority_allowed(l, 60));
+  CHECK_FALSE(memory_lock_allowed(l));  // a finite limit: locking the future could fail an allocation
+  l.rtprio = 95;
+  l.memlock_bytes = UINT64_MAX;
+  CHECK(priority_allowed(l, 60));
+  CHECK(memory_lock_allowed(l));
+  l.rtprio = 59;
+  CHECK_FALSE(priority_allowed(l, 60));
+  l = RealtimeLimits{};
+  l.privileged = true;  // root: no limit applies
+  CHECK(priority_allowed(l, 99));
+  CHECK(memory_lock_allowed(l));
+  // This process's own limits are read (whatever they are here).
+  const RealtimeLimits mine = realtime_limits();
+  CHECK(mine.privileged == (::geteuid() == 0));
 }

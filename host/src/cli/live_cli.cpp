@@ -23,6 +23,7 @@
 #include "board/vboard_child.h"
 #include "config/config.h"
 #include "config/rig.h"
+#include "live/realtime_setup.h"
 #include "live/midi_in.h"
 #include "live/session.h"
 
@@ -182,6 +183,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       alloc.mono_channel[first + m] = settings->motors[m].mono_channel;
     }
   }
+  const std::string locked = lock_memory();  // before the real-time threads start
   LiveSession session(pool, alloc);
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
@@ -190,8 +192,11 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
               api_name.c_str(), session.motor_count(), policy_names[static_cast<int>(policy)]);
   std::fflush(stdout);
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  if (session.realtime_threads() == 0)
-    log->info("no real-time scheduling for the engine and writer threads (needs CAP_SYS_NICE or an rtprio limit)");
+  const size_t rt_wanted = 1 + session.board_count();  // the engine and a writer a board
+  std::printf("live: real time: %s; %d of %zu threads SCHED_FIFO%s\n",
+              locked.empty() ? "memory locked" : locked.c_str(), session.realtime_threads(), rt_wanted,
+              size_t(session.realtime_threads()) == rt_wanted ? "" : " (`stepchoir doctor` says how to allow it)");
+  std::fflush(stdout);
 
   uint64_t errors_logged = 0, dropped_logged = 0;
   const bool tty = ::isatty(1);

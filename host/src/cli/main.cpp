@@ -1,5 +1,5 @@
 // main.cpp: the `stepchoir` command: hello, tone, status, panic, driver, home, jog, center,
-// ports, live, config, gcode, play, render, jam.
+// ports, doctor, live, config, gcode, play, render, jam.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -11,6 +11,7 @@
 #include "board/board.h"
 #include "board/link.h"
 #include "cli/gcode_command.h"
+#include "cli/doctor.h"
 #include "cli/live_cli.h"
 #include "cli/motion_command.h"
 #include "cli/play_command.h"
@@ -180,6 +181,13 @@ int main(int argc, char **argv) {
 
   const stepchoir::MotionCommands motion = stepchoir::add_motion_commands(app, board_options);
 
+  stepchoir::DoctorOptions doctor_opt;
+  auto *doctor = app.add_subcommand("doctor", "Check the rig (configuration, serial permissions, real-time limits, MIDI, "
+                                              "each board's firmware and round trip) and print the fix for each problem");
+  doctor->add_option("--config,-c", doctor_opt.config,
+                     "Rig configuration (default: " + stepchoir::default_config_path() + " if it exists)");
+  doctor->add_option("--port,-p", doctor_opt.ports, "Board (repeatable; default: the file's boards, else every serial port)");
+
   std::string ports_midi_api = "alsa";
   auto *ports = app.add_subcommand("ports", "List serial ports and MIDI inputs");
   ports->add_option("--midi-api", ports_midi_api, "MIDI API whose inputs to list")->check(CLI::IsMember({"alsa", "jack"}));
@@ -224,6 +232,7 @@ int main(int argc, char **argv) {
       return 0;
     }
     if (app.got_subcommand(live)) return stepchoir::run_live(live_opt, g_stop);
+    if (app.got_subcommand(doctor)) return stepchoir::run_doctor(doctor_opt);
     if (app.got_subcommand(play->play) || app.got_subcommand(play->render) || app.got_subcommand(play->jam)) {
       std::signal(SIGUSR1, on_pause_signal);
       return play->run(g_stop);
