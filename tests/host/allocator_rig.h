@@ -18,6 +18,8 @@ namespace stepchoir::allocator_test {
 extern size_t g_allocations;
 
 constexpr uint32_t kF = 16000000;
+// A velocity below the default doubling thresholds (live/velocity.h): one motor a note.
+constexpr uint8_t kSoft = 64;
 
 // The period a motor must report for a played note, bend and tuning: the formula of the spec,
 // written out independently of the allocator.
@@ -45,9 +47,24 @@ struct Rig {
     for (const auto &p : out) board[p.motor] = p.period_q8;
     return out;
   }
-  std::vector<sc::PeriodEntry> on(uint8_t ch, uint8_t note) { return send(note_on(ch, note, 100)); }
+  std::vector<sc::PeriodEntry> on(uint8_t ch, uint8_t note, uint8_t velocity = kSoft) {
+    return send(note_on(ch, note, velocity));
+  }
   std::vector<sc::PeriodEntry> off(uint8_t ch, uint8_t note) { return send(note_off(ch, note)); }
   std::vector<sc::PeriodEntry> cc(uint8_t ch, uint8_t n, uint8_t v) { return send(control_change(ch, n, v)); }
+  // Sends one event stamped at us (the engine's monotonic_us).
+  std::vector<sc::PeriodEntry> at(MidiEvent e, uint64_t us) {
+    e.timestamp_us = us;
+    return send(e);
+  }
+  // Moves vibrato and glides on to us, as the engine's tick does; returns the entries (applied
+  // to the mirror).
+  std::vector<sc::PeriodEntry> tick(uint64_t us) {
+    std::vector<sc::PeriodEntry> out(Allocator::kMaxMotors);
+    out.resize(a.tick(us, out.data(), out.size()));
+    for (const auto &p : out) board[p.motor] = p.period_q8;
+    return out;
+  }
   std::vector<sc::PeriodEntry> bend(uint8_t ch, uint16_t v) { return send(pitch_bend(ch, v)); }
 
   // Motors sounding a given key of a channel.

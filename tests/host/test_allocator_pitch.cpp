@@ -330,7 +330,7 @@ TEST_CASE("vibrato: the mod wheel adds a sine in pitch, depth linear in it, fade
   c.vibrato.depth_cents = 50.0;
   c.vibrato.fade_ms = 100.0;
   Rig r(c);
-  MidiEvent on = note_on(0, 69, 100);
+  MidiEvent on = note_on(0, 69, kSoft);
   on.timestamp_us = 1000000;
   r.send(on);
   CHECK_FALSE(r.a.vibrating());
@@ -387,38 +387,29 @@ TEST_CASE("vibrato: channel aftertouch sets the depth only when configured, and 
 
 TEST_CASE("glide: CC65 on, CC5 time: a motor's next note slides from its last at an even rate, then lands exactly") {
   Rig r(poly(2));
-  auto at = [&](MidiEvent e, uint64_t us) {
-    e.timestamp_us = us;
-    r.send(e);
-  };
-  auto tick = [&](uint64_t us) {
-    std::vector<sc::PeriodEntry> out(Allocator::kMaxMotors);
-    out.resize(r.a.tick(us, out.data(), out.size()));
-    for (const auto &p : out) r.board[p.motor] = p.period_q8;
-  };
-  at(control_change(0, kCcPortamento, 127), 1000);
-  at(control_change(0, kCcPortamentoTime, 20), 1000);  // 20 x 16 ms = 320 ms
-  at(note_on(0, 57, 100), 1000000);
+  r.at(control_change(0, kCcPortamento, 127), 1000);
+  r.at(control_change(0, kCcPortamentoTime, 20), 1000);  // 20 x 16 ms = 320 ms
+  r.at(note_on(0, 57, kSoft), 1000000);
   CHECK(r.board[0] == expected_period(57));  // nothing played before: no glide
-  at(note_off(0, 57), 1200000);
-  at(note_on(0, 69, 100), 1250000);  // 50 ms after: the same motor slides up an octave
+  r.at(note_off(0, 57), 1200000);
+  r.at(note_on(0, 69, kSoft), 1250000);  // 50 ms after: the same motor slides up an octave
   REQUIRE(r.motors_on(0, 69) == std::vector<size_t>{0});
   CHECK(r.board[0] == expected_period(57));
   CHECK(r.a.vibrating());  // the engine ticks while it glides
-  tick(1250000 + 160000);
+  r.tick(1250000 + 160000);
   CHECK(r.board[0] == expected_period(63));  // half way: half the octave, evenly in cents
-  tick(1250000 + 240000);
+  r.tick(1250000 + 240000);
   CHECK(r.board[0] == expected_period(66));
-  tick(1250000 + 320000);
+  r.tick(1250000 + 320000);
   CHECK(r.board[0] == expected_period(69));  // landed exactly
   CHECK_FALSE(r.a.vibrating());
   // A motor silent for longer than kGlideAfterSilenceUs starts its note on pitch.
-  at(note_off(0, 69), 2000000);
-  at(note_on(0, 60, 100), 2000000 + kGlideAfterSilenceUs + 1000);
+  r.at(note_off(0, 69), 2000000);
+  r.at(note_on(0, 60, kSoft), 2000000 + kGlideAfterSilenceUs + 1000);
   CHECK(r.board[0] == expected_period(60));
   // Glide off: no slide.
-  at(control_change(0, kCcPortamento, 0), 2500000);
-  at(note_on(0, 72, 100), 2500000);
+  r.at(control_change(0, kCcPortamento, 0), 2500000);
+  r.at(note_on(0, 72, kSoft), 2500000);
   CHECK(r.board[r.motors_on(0, 72).at(0)] == expected_period(72));
 }
 
@@ -427,13 +418,13 @@ TEST_CASE("glide: in mono the channel's note always slides, even after a silence
   MidiEvent e = control_change(0, kCcPortamento, 127);
   r.send(e);
   r.send(control_change(0, kCcPortamentoTime, 10));  // 160 ms
-  e = note_on(0, 60, 100);
+  e = note_on(0, 60, kSoft);
   e.timestamp_us = 1000000;
   r.send(e);
   e = note_off(0, 60);
   e.timestamp_us = 1100000;
   r.send(e);
-  e = note_on(0, 64, 100);
+  e = note_on(0, 64, kSoft);
   e.timestamp_us = 3000000;  // two seconds of silence
   r.send(e);
   CHECK(r.board[0] == expected_period(60));

@@ -1,8 +1,10 @@
 // test_allocator_random.cpp: the allocator under random play, against a model of which keys are
-// alive: every motor on one live note, in range and in tune, and silence at the end.
+// alive: every motor on one live note (a loud poly note's doublers in unison with its own motor),
+// in range and in tune, and silence at the end.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <map>
 #include <random>
 #include <set>
 #include <utility>
@@ -116,11 +118,12 @@ TEST_CASE("random play keeps every motor on one live note and ends silent") {
   Rig r(config);
   KeyModel keys;
   std::mt19937 rng(row.seed);
-  size_t max_sounding = 0;
+  size_t max_sounding = 0, doubled = 0;
 
   auto check_state = [&](int step) {
     INFO("step " << step);
-    std::set<std::pair<int, int>> taken;
+    std::map<std::pair<int, int>, int> taken;  // kPoly: each key's own motor's played note
+    std::vector<MotorState> doublers;
     for (size_t m = 0; m < r.a.motor_count(); ++m) {
       const MotorState s = r.a.motor(m);
       INFO("motor " << m << " ch " << int(s.channel) << " note " << int(s.note));
@@ -141,8 +144,10 @@ TEST_CASE("random play keeps every motor on one live note and ends silent") {
       REQUIRE((s.played_note - s.note - mc.transpose) % 12 == 0);
       REQUIRE(s.period_q8 == expected_period(s.played_note, r.a.bend_semitones(s.channel), mc.tuning_cents));
       if (row.policy == Policy::kPoly) {
-        REQUIRE(taken.insert({s.channel, s.note}).second);  // no key on two motors
+        if (s.doubling) doublers.push_back(s);
+        else REQUIRE(taken.emplace(std::make_pair(s.channel, s.note), s.played_note).second);  // one own motor a key
       } else {
+        REQUIRE_FALSE(s.doubling);
         // Mono and channel: the group follows the newest live key of its channel.
         const int owner = row.policy == Policy::kChannel ? int(m) : config.mono_channel[m];
         REQUIRE(s.channel == owner);
@@ -150,6 +155,16 @@ TEST_CASE("random play keeps every motor on one live note and ends silent") {
         REQUIRE(s.note == keys.order[owner].back());
       }
     }
+    // A doubler plays its key's very note, in unison with the key's own motor; two at most a key.
+    std::map<std::pair<int, int>, int> doublers_of;
+    for (const MotorState &s : doublers) {
+      INFO("doubler of ch " << int(s.channel) << " note " << int(s.note));
+      const auto key = std::make_pair(int(s.channel), int(s.note));
+      REQUIRE(taken.count(key) == 1);
+      REQUIRE(taken[key] == s.played_note);
+      REQUIRE(++doublers_of[key] <= 2);
+    }
+    doubled += doublers.size();
     if (row.policy != Policy::kPoly) {
       // Motor 0 (full range, no mutes) sounds whenever its channel has a live key.
       REQUIRE(r.a.motor(0).sounding == !keys.order[0].empty());
@@ -166,6 +181,7 @@ TEST_CASE("random play keeps every motor on one live note and ends silent") {
     max_sounding = std::max(max_sounding, r.sounding());
   }
   CHECK(max_sounding >= 3);  // the run did exercise polyphony
+  CHECK((doubled > 0) == (row.policy == Policy::kPoly));  // and, in poly, doubling
 
   for (uint8_t ch = 0; ch < 16; ++ch) {
     r.cc(ch, kCcAllNotesOff, 0);

@@ -70,7 +70,7 @@ size_t Allocator::handle(const MidiEvent &e, sc::PeriodEntry *out, size_t max_ou
       case kMidiNoteOff: note_off(ch, e.data1); break;
       case kMidiNoteOn:
         if (e.data2 == 0) note_off(ch, e.data1);
-        else if (!channels_[ch].percussion || config_.sing_percussion) note_on(ch, e.data1);
+        else if (!channels_[ch].percussion || config_.sing_percussion) note_on(ch, e.data1, e.data2);
         break;
       case kMidiProgramChange: channels_[ch].percussion = percussion_bank(ch, channels_[ch].bank); break;
       case kMidiControlChange: control_change(ch, e.data1, e.data2); break;
@@ -127,6 +127,7 @@ MotorState Allocator::motor(size_t m) const noexcept {
     s.played_note = v.played;
     s.held = v.held;
     s.sustained = v.sustained;
+    s.doubling = v.doubler;
   }
   s.period_q8 = period_[m];
   return s;

@@ -1,12 +1,13 @@
-// allocator_notes.cpp: where a note goes: kPoly's free motor or stolen one, and kMono/kChannel's
-// note memory that points a group at its channel's newest key (see allocator.h for the rules).
+// allocator_notes.cpp: where a note goes: kPoly's free motor, a doubler's or a stolen one, and a
+// loud note's extra motors in unison; kMono/kChannel's note memory that points a group at its
+// channel's newest key (see allocator.h for the rules).
 #include "live/allocator.h"
 
 namespace stepchoir {
 
-void Allocator::note_on(uint8_t ch, uint8_t note) noexcept {
+void Allocator::note_on(uint8_t ch, uint8_t note, uint8_t velocity) noexcept {
   if (is_poly()) {
-    poly_note_on(ch, note);
+    poly_note_on(ch, note, config_.velocity.extra_motors(velocity));
   } else {
     mono_push(ch, note);
     mono_update(ch);
@@ -24,7 +25,7 @@ void Allocator::note_off(uint8_t ch, uint8_t note) noexcept {
     mono_update(ch);
     return;
   }
-  // Only the motor playing this key of this channel, and only while the key is down.
+  // The motors playing this key of this channel (its own and its doublers), while the key is down.
   for (size_t m = 0; m < config_.motor_count; ++m) {
     Voice &v = voices_[m];
     if (!v.active || !v.held || v.channel != ch || v.note != note) continue;
@@ -34,22 +35,26 @@ void Allocator::note_off(uint8_t ch, uint8_t note) noexcept {
     } else {
       release(m);
     }
-    return;  // at most one motor plays a given key of a channel
   }
 }
 
-void Allocator::poly_note_on(uint8_t ch, uint8_t note) noexcept {
+void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
   const size_t n = config_.motor_count;
   // Struck again while it still sounds (held, or held by the pedal): the same motor carries
-  // on, so repeating a key never takes a second motor.
+  // on, so repeating a key never takes a second motor for its own; its doublers follow the
+  // new velocity.
   for (size_t m = 0; m < n; ++m) {
-    Voice &v = voices_[m];
-    if (v.active && v.channel == ch && v.note == note) {
+    if (!voices_[m].active || voices_[m].doubler || voices_[m].channel != ch || voices_[m].note != note) continue;
+    ++sequence_;
+    for (size_t d = 0; d < n; ++d) {
+      Voice &v = voices_[d];
+      if (!same_key(d, m)) continue;
       v.held = true;
       v.sustained = false;
-      v.started = ++sequence_;
-      return;
+      v.started = sequence_;
     }
+    set_doublers(m, extra);
+    return;
   }
   // A free motor that can play it, fewest octaves of folding first, then lowest index; a
   // gliding channel first takes the motor that fell silent last, within kGlideAfterSilenceUs.
@@ -72,14 +77,17 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note) noexcept {
     }
   }
   if (best == kNone) {
-    best = poly_victim(note);
+    best = spare_motor(note);  // a motor in unison with another: no note stops
+    if (best == kNone) best = poly_victim(note);
     if (best == kNone) return;  // every motor is busy with a note the priority keeps
+    hand_over(best);
     int octaves;
     resolve(best, note, &best_played, &octaves);
   }
   voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_, now_us_};
   start_glide(best, ch, false);
   retune(best);
+  set_doublers(best, extra);
 }
 
 size_t Allocator::poly_victim(uint8_t note) const noexcept {
@@ -110,6 +118,77 @@ size_t Allocator::poly_victim(uint8_t note) const noexcept {
   if (config_.priority == Priority::kLowest && note > kept) return kNone;
   if (config_.priority == Priority::kHighest && note < kept) return kNone;
   return victim;
+}
+
+// ---------------------------------------------------------------------------------------------
+// kPoly velocity doubling (live/velocity.h): a loud note's extra motors in unison
+// ---------------------------------------------------------------------------------------------
+
+bool Allocator::same_key(size_t m, size_t p) const noexcept {
+  const Voice &v = voices_[m], &w = voices_[p];
+  return v.active && w.active && v.channel == w.channel && v.note == w.note;
+}
+
+size_t Allocator::key_motors(size_t p) const noexcept {
+  size_t count = 0;
+  for (size_t m = 0; m < config_.motor_count; ++m) count += same_key(m, p);
+  return count;
+}
+
+void Allocator::set_doublers(size_t p, uint8_t want) noexcept {
+  const size_t n = config_.motor_count;
+  size_t have = key_motors(p) - 1;
+  // Too many (a softer strike of a sounding key): the highest motors go first.
+  for (size_t m = n; m-- > 0 && have > want;) {
+    if (m == p || !same_key(m, p)) continue;
+    release(m);
+    --have;
+  }
+  // Too few: free motors that play the note's very pitch (its played note, after their own
+  // transpose, folding and mutes), the fewest octaves of folding first, then the lowest index.
+  for (; have < want; ++have) {
+    size_t best = kNone;
+    int best_octaves = 0;
+    for (size_t m = 0; m < n; ++m) {
+      uint8_t played;
+      int octaves;
+      if (voices_[m].active || !resolve(m, voices_[p].note, &played, &octaves) || played != voices_[p].played) continue;
+      if (best == kNone || octaves < best_octaves) best = m, best_octaves = octaves;
+    }
+    if (best == kNone) return;
+    voices_[best] = voices_[p];
+    voices_[best].doubler = true;
+    glide_[best] = glide_[p];  // the same slide, so the unison holds while it glides
+    retune(best);
+  }
+}
+
+size_t Allocator::spare_motor(uint8_t note) const noexcept {
+  size_t spare = kNone, spare_key = 0;
+  for (size_t m = 0; m < config_.motor_count; ++m) {
+    uint8_t played;
+    int octaves;
+    const size_t key = voices_[m].active ? key_motors(m) : 0;
+    if (key < 2 || !resolve(m, note, &played, &octaves)) continue;
+    const Voice &v = voices_[m];
+    const Voice *w = spare == kNone ? nullptr : &voices_[spare];
+    // The biggest unison first, then a doubler rather than the note's own motor, then the oldest note.
+    if (!w || key > spare_key || (key == spare_key && (v.doubler > w->doubler ||
+                                                       (v.doubler == w->doubler && v.started < w->started)))) {
+      spare = m;
+      spare_key = key;
+    }
+  }
+  return spare;
+}
+
+void Allocator::hand_over(size_t m) noexcept {
+  if (!voices_[m].active || voices_[m].doubler) return;
+  for (size_t d = 0; d < config_.motor_count; ++d) {
+    if (d == m || !same_key(d, m)) continue;
+    voices_[d].doubler = false;  // the note's own motor now; it goes on sounding
+    return;
+  }
 }
 
 void Allocator::mono_push(uint8_t ch, uint8_t note) noexcept {
