@@ -37,6 +37,7 @@ struct LiveConfig {
   bool sing_percussion = false;  // [allocation] sing_percussion: drum channels' notes as pitches
   double a4_hz = kA4Hz;
   VibratoConfig vibrato;          // [vibrato]: the mod wheel's
+  VelocityConfig velocity;        // [velocity]: from which velocity a poly note takes a second and third motor
   std::vector<BoardSettings> boards;
 };
 
