@@ -1,7 +1,7 @@
-// test_expression.cpp: expression on stage, end to end: a JACK keyboard's mod wheel and glide through
-// `stepchoir live` into the real firmware on the virtual board: vibrato at the configured rate and
-// depth, and a glide for its set time, measured from the trace's STEP edges; each note then
-// plays its exact pitch.
+// test_expression.cpp: expression on stage, end to end: a JACK keyboard's mod wheel, glide and
+// velocity through `stepchoir live` into the real firmware on the virtual board: vibrato at the
+// configured rate and depth, a glide for its set time, and a loud note doubled on free motors in
+// unison, measured from the trace's STEP edges; each note then plays its exact pitch.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -9,11 +9,13 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <utility>
 #include <vector>
 
+#include "analysis.h"
 #include "board/child_process.h"
 #include "core/midi_event.h"
 #include "e2e_util.h"
@@ -50,22 +52,35 @@ tr::Trace finish(stepchoir::ChildProcess &live, VboardProcess &vb, const std::st
   return t;
 }
 
+// `stepchoir live` on an Uno virtual board that keeps a trace, played from a JACK keyboard; its
+// rig file names the keyboard, the board and holds `tables` (TOML). Ready to play once built.
+struct LiveRig {
+  LiveRig(const std::string &name, const std::string &tables)
+      : trace_path(e2e::scratch(name + ".csv")), config_path(e2e::scratch(name + ".toml")),
+        vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"}) {
+    std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+                               << tables << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
+    live = std::make_unique<stepchoir::ChildProcess>(
+        std::vector<std::string>{STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+    REQUIRE(live->read_line(&said, 30000));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // JACK takes the new connection
+  }
+
+  JackServer jack{1024};
+  Sender keys;
+  std::string trace_path, config_path;
+  VboardProcess vb;
+  std::unique_ptr<stepchoir::ChildProcess> live;
+  std::string said;  // its first line
+};
+
 }  // namespace
 
 TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note is back on pitch when it falls",
           "[e2e][live][pacing]") {
-  JackServer jack(1024);
-  Sender keys;
-  const std::string trace_path = e2e::scratch("vibrato.csv"), config_path = e2e::scratch("vibrato.toml");
-  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
-  std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
-                             << "[vibrato]\nrate_hz = 5.5\ndepth_cents = 50.0\nfade_ms = 150.0\n"
-                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
-  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
-  std::string line;
-  REQUIRE(live.read_line(&line, 30000));
-  INFO("stepchoir live said: " << line);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  LiveRig rig("vibrato", "[vibrato]\nrate_hz = 5.5\ndepth_cents = 50.0\nfade_ms = 150.0\n");
+  INFO("stepchoir live said: " << rig.said);
+  Sender &keys = rig.keys;
   keys.send(stepchoir::note_on(0, 69, 100));  // A4
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   keys.send(stepchoir::control_change(0, stepchoir::kCcModWheel, 127));
@@ -75,7 +90,7 @@ TEST_CASE("live: the mod wheel sings vibrato at its rate and depth, and the note
   keys.send(stepchoir::note_off(0, 69));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   size_t motor = 0;
-  const tr::Trace t = finish(live, vb, trace_path, &motor);
+  const tr::Trace t = finish(*rig.live, rig.vb, rig.trace_path, &motor);
   const auto cents = cents_by_edge(t, motor);
   REQUIRE(cents.size() > 1000);
   const double start = cents.front().first;
@@ -169,4 +184,82 @@ TEST_CASE("live: glide (CC65, CC5) slides a motor into its next note for the set
   CHECK(std::fabs(first + 1200) < 40);  // from A3, one tick's step at most
   CHECK(std::fabs((landed - second_start) / 0.320 - 1) < 0.1);
   CHECK(std::fabs(mean) < 0.1);  // on pitch
+}
+
+TEST_CASE("live: velocity doubling: a loud note sounds in unison on two or three free motors and stops on all",
+          "[e2e][live][pacing]") {
+  LiveRig rig("velocity", "[velocity]\ndouble_at = 100\ntriple_at = 120\n");
+  INFO("stepchoir live said: " << rig.said);
+  REQUIRE(rig.said.find("-> 4 motors") != std::string::npos);
+  Sender &keys = rig.keys;
+  auto wait_ms = [](int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); };
+  // A key, the velocity it is struck at, the motors it must sound on, how long it is held (ms).
+  struct Strike {
+    uint8_t note, velocity;
+    size_t motors;
+    int held_ms;
+  };
+  // Alone on four free motors: soft, loud, louder; each its own pitch, each released before the
+  // next. Then three keys held, and 100 ms later a loud fourth: the one free motor, no doubling.
+  const std::vector<Strike> strikes = {{69, 64, 1, 500},  {71, 110, 2, 500}, {72, 127, 3, 500}, {60, 64, 1, 600},
+                                       {64, 64, 1, 600},  {67, 64, 1, 600},  {74, 127, 1, 500}};
+  for (size_t i = 0; i < 3; ++i) {
+    keys.send(stepchoir::note_on(0, strikes[i].note, strikes[i].velocity));
+    wait_ms(strikes[i].held_ms);
+    keys.send(stepchoir::note_off(0, strikes[i].note));
+    wait_ms(300);
+  }
+  for (size_t i = 3; i < 6; ++i) keys.send(stepchoir::note_on(0, strikes[i].note, strikes[i].velocity));
+  wait_ms(100);
+  keys.send(stepchoir::note_on(0, strikes[6].note, strikes[6].velocity));
+  wait_ms(500);
+  for (size_t i = 3; i < 7; ++i) keys.send(stepchoir::note_off(0, strikes[i].note));
+  wait_ms(300);
+  size_t busiest = 0;
+  const tr::Trace t = finish(*rig.live, rig.vb, rig.trace_path, &busiest);
+
+  // Every note of every motor: its start and end (s) and its pitch (fractional MIDI note) from
+  // the mean interval of its STEP edges in real time.
+  struct Sounded {
+    size_t motor;
+    double start_s, end_s, pitch;
+  };
+  std::vector<Sounded> sounded;
+  for (size_t m = 0; m < t.motor.size(); ++m)
+    for (const auto &seg : tr::segment_notes(t.motor[m].steps, t.f_cpu_hz)) {
+      const double start_s = t.real_seconds(seg.start_cycle), end_s = t.real_seconds(seg.end_cycle);
+      const double hz = static_cast<double>(seg.last_step - seg.first_step) / (end_s - start_s);
+      sounded.push_back({m, start_s, end_s, 69.0 + 12.0 * std::log2(hz / 440.0)});
+      UNSCOPED_INFO("motor " << m << ": " << sounded.back().pitch << " from " << start_s << " s to " << end_s << " s");
+    }
+  size_t expected_notes = 0;
+  for (const Strike &s : strikes) {
+    expected_notes += s.motors;
+    std::vector<Sounded> on;
+    for (const Sounded &n : sounded)
+      if (std::fabs(n.pitch - s.note) < 0.5) on.push_back(n);
+    INFO("note " << int(s.note) << " at velocity " << int(s.velocity));
+    REQUIRE(on.size() == s.motors);  // one segment each, on as many motors
+    double worst_cents = 0, first_start = 1e9, last_start = 0, first_end = 1e9, last_end = 0;
+    std::string motors;
+    for (const Sounded &n : on) {
+      const double cents = (n.pitch - s.note) * 100.0;
+      if (std::fabs(cents) > std::fabs(worst_cents)) worst_cents = cents;
+      first_start = std::min(first_start, n.start_s), last_start = std::max(last_start, n.start_s);
+      first_end = std::min(first_end, n.end_s), last_end = std::max(last_end, n.end_s);
+      motors += (motors.empty() ? "" : ",") + std::to_string(n.motor);
+      INFO("motor " << n.motor << ": " << cents << " cents, " << (n.end_s - n.start_s) * 1e3 << " ms");
+      CHECK(std::fabs(cents) < 1.0);
+      CHECK(std::fabs((n.end_s - n.start_s) * 1e3 - s.held_ms) < 150);  // sounded until its note-off
+    }
+    for (size_t i = 0; i < on.size(); ++i)
+      for (size_t j = i + 1; j < on.size(); ++j) CHECK(on[i].motor != on[j].motor);
+    CHECK(last_start - first_start < 0.05);  // in unison from the strike
+    CHECK(last_end - first_end < 0.05);      // and silenced together by the note-off
+    std::printf("velocity: note %d at velocity %3d on %zu motor(s) (%s), worst pitch error %+.4f cents, "
+                "starts %.1f ms apart, ends %.1f ms apart\n",
+                s.note, s.velocity, on.size(), motors.c_str(), worst_cents, (last_start - first_start) * 1e3,
+                (last_end - first_end) * 1e3);
+  }
+  CHECK(sounded.size() == expected_notes);  // nothing else sounded
 }

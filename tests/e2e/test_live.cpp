@@ -42,6 +42,8 @@ const double kTimeToleranceS = 0.045;
 const double kPitchToleranceSemitones = 0.02;
 // Silence between the random phase and the last held note (sender clock, s).
 const double kQuietGapS = 1.0;
+// A velocity below [velocity]'s default double_at (live/velocity.h): a note on one motor.
+constexpr uint8_t kSoft = 64;
 
 // A note the trace must show: pitch (fractional MIDI note, bend included), from on_s to off_s
 // on the sender's clock.
@@ -282,7 +284,7 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   REQUIRE(line.rfind("live: MIDI", 0) == 0);
   settle();
 
-  keys.send(stepchoir::note_on(0, 60, 100));  // held across the unplug
+  keys.send(stepchoir::note_on(0, 60, kSoft));  // held across the unplug
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   REQUIRE(vb->stop() == 0);  // unplugged
   REQUIRE(wait_for_line(live, "link lost"));
@@ -293,7 +295,7 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const double off60_s = keys.send(stepchoir::note_off(0, 60));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  const double on64_s = keys.send(stepchoir::note_on(0, 64, 100));
+  const double on64_s = keys.send(stepchoir::note_on(0, 64, kSoft));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const double off64_s = keys.send(stepchoir::note_off(0, 64));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -332,7 +334,7 @@ TEST_CASE("live: without --port it starts the virtual board, says so, and plays 
   CHECK(said.rfind("live: no --port: playing on the virtual board (mega, bundled firmware)", 0) == 0);
   CHECK(line.find("-> 5 motors") != std::string::npos);
   settle();
-  const double on_s = keys.send(stepchoir::note_on(0, 69, 100));
+  const double on_s = keys.send(stepchoir::note_on(0, 69, kSoft));
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const double off_s = keys.send(stepchoir::note_off(0, 69));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -394,7 +396,7 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   REQUIRE(line.rfind("live: MIDI", 0) == 0);
   settle();
   keys->send(stepchoir::control_change(0, stepchoir::kCcSustain, 127));
-  const double on60_s = keys->send(stepchoir::note_on(0, 60, 100));  // down, and pedalled, when unplugged
+  const double on60_s = keys->send(stepchoir::note_on(0, 60, kSoft));  // down, and pedalled, when unplugged
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   keys.reset();  // unplugged
   const double gone_s = Sender::now_s();
@@ -403,7 +405,7 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   keys = std::make_unique<Sender>();  // plugged in again
   REQUIRE(wait_for_line(live, "is back"));
   settle();
-  const double on_s = keys->send(stepchoir::note_on(0, 64, 100));
+  const double on_s = keys->send(stepchoir::note_on(0, 64, kSoft));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const double off_s = keys->send(stepchoir::note_off(0, 64));  // no pedal: it stops here
   std::this_thread::sleep_for(std::chrono::milliseconds(300));

@@ -216,3 +216,21 @@ TEST_CASE("config: mistakes name the file, line and what is wrong", "[config]") 
 TEST_CASE("config: a missing file is reported by path", "[config]") {
   CHECK_THROWS_WITH(load_config("/nonexistent/stepchoir.toml"), "/nonexistent/stepchoir.toml: cannot open");
 }
+
+TEST_CASE("config: the velocity table sets the doubling thresholds, and names a bad one by line and column", "[config]") {
+  const LiveConfig d = parse_config(default_config_text(), "default");
+  CHECK(d.velocity.double_at == 100);  // the printed default, and the built-in one
+  CHECK(d.velocity.triple_at == 120);
+  CHECK(LiveConfig{}.velocity.double_at == 100);
+  CHECK(LiveConfig{}.velocity.triple_at == 120);
+  const LiveConfig c = parse_config("[velocity]\ndouble_at = 90\ntriple_at = 0\n", "f.toml");
+  CHECK(c.velocity.double_at == 90);
+  CHECK(c.velocity.triple_at == 0);  // off
+  CHECK(c.velocity.extra_motors(127) == 1);
+  CHECK(parse_config("[velocity]\ntriple_at = 127\n", "f.toml").velocity.double_at == 100);  // the other keeps its default
+  CHECK(error_of("[velocity]\ndouble_at = 128\n") == "f.toml:2:13: double_at = 128: must be 0 to 127");
+  CHECK(error_of("[velocity]\ndouble_at = 90\ntriple_at = -1\n") == "f.toml:3:13: triple_at = -1: must be 0 to 127");
+  CHECK(error_of("[velocity]\ntriple_at = 110.5\n") == "f.toml:2:13: triple_at: expected an integer");
+  CHECK(error_of("[velocity]\nquadruple_at = 127\n") == "f.toml:2:16: unknown key 'quadruple_at' in [velocity]");
+  CHECK(error_of("velocity = 100\n") == "f.toml:1:12: [velocity] must be a table");
+}

@@ -24,6 +24,9 @@ using namespace stepchoir;
 
 namespace {
 
+// A velocity below [velocity]'s default double_at (live/velocity.h): one motor a note.
+constexpr uint8_t kSoft = 64;
+
 // A Link that keeps every byte written; reads time out with nothing. While closed, writes
 // wait: a link slower than anything the test sends. With `direct`, try_write takes a frame at
 // once while open and refuses it while closed (like a port whose OS buffer is full); without,
@@ -242,8 +245,8 @@ TEST_CASE("live: notes reach the link as set-period frames, and stop silences an
   s.start();
   const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
   const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, kSoft, monotonic_us())));
   REQUIRE(eventually([&] { return entries_of(link.frames()).size() >= 2; }));
   CHECK(eventually([&] { return s.motor_note(0) == 69 && s.motor_note(1) == 76; }));
   REQUIRE(s.midi_queue().try_enqueue(note_off(0, 69, 0, monotonic_us())));
@@ -319,16 +322,16 @@ TEST_CASE("live: a slow link gets the latest states, every silence, and ends sil
   LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), kNoRefresh);
   s.start();
   const uint32_t c4 = hz_to_period_q8(note_hz(60), kF);
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel 0 -> motor 0
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, kSoft)));  // channel 0 -> motor 0
   REQUIRE(eventually([&] { return periods_of(entries_of(link.frames()), 0) == std::vector<uint32_t>{c4}; }));
   link.set_open(false);  // from here the writer blocks in its next write until every event is in
   const int kRepeats = 200;
   for (int i = 1; i <= kRepeats; ++i) {  // the note released and struck again 200 times, bending
     REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
     REQUIRE(s.midi_queue().try_enqueue(pitch_bend(0, static_cast<uint16_t>(8192 + 40 * i))));
-    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, kSoft)));
   }
-  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));  // channel 1 -> motor 1
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, kSoft)));  // channel 1 -> motor 1
   REQUIRE(eventually([&] { return s.events() == 3 * kRepeats + 2; }));
   link.set_open(true);
   const uint32_t last_bend = hz_to_period_q8(note_hz(60 + 2.0 * (40 * kRepeats) / 8192), kF);
@@ -360,9 +363,9 @@ TEST_CASE("live: the engine writes an idle link's frames itself, in order, and a
   const uint32_t c4 = hz_to_period_q8(note_hz(60), kF), e4 = hz_to_period_q8(note_hz(64), kF),
                  d4 = hz_to_period_q8(note_hz(62), kF);
   auto motor = [&](uint8_t m) { return periods_of(entries_of(link.frames()), m); };
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));  // channel n -> motor n
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, kSoft)));  // channel n -> motor n
   REQUIRE(eventually([&] { return motor(0) == std::vector<uint32_t>{c4}; }));
-  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, kSoft)));
   REQUIRE(eventually([&] { return motor(1) == std::vector<uint32_t>{e4}; }));
   REQUIRE(s.midi_queue().try_enqueue(note_off(0, 60)));
   REQUIRE(eventually([&] { return motor(0) == std::vector<uint32_t>{c4, 0}; }));
@@ -371,7 +374,7 @@ TEST_CASE("live: the engine writes an idle link's frames itself, in order, and a
   // gets the updates, in order, once the link takes bytes again.
   link.set_open(false);
   const uint64_t direct = s.board_stats(0).direct_frames.load();
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 62, 100)));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 62, kSoft)));
   REQUIRE(s.midi_queue().try_enqueue(note_off(1, 64)));
   REQUIRE(eventually([&] { return s.events() == 5; }));
   link.set_open(true);
@@ -417,12 +420,12 @@ TEST_CASE("live: a new link gets the watchdog and the held notes, the old one no
   LiveSession s({{&first, 2, kF}}, pool_config({{&first, 2, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
   const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft)));
   REQUIRE(eventually([&] { return periods_of(entries_of(first.frames()), 0) == std::vector<uint32_t>{a4}; }));
   REQUIRE(s.detach_link(0));
   const size_t first_frames = first.frames().size();
   const uint32_t e5 = hz_to_period_q8(note_hz(76), kF);
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, 100)));  // played while no board is there
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 76, kSoft)));  // played while no board is there
   REQUIRE(eventually([&] { return s.events() == 2; }));
   s.attach_link(0, &second);
   REQUIRE(eventually([&] { return entries_of(second.frames()).size() >= 2; }));
@@ -464,7 +467,7 @@ TEST_CASE("live: the writer keeps to the link budget when events come faster", "
   const auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < 2000; ++i) {  // 2000 notes, each on then off, as fast as the queue takes them
     const uint8_t n = static_cast<uint8_t>(40 + i % 40);
-    while (!s.midi_queue().try_enqueue(note_on(0, n, 100))) std::this_thread::yield();
+    while (!s.midi_queue().try_enqueue(note_on(0, n, kSoft))) std::this_thread::yield();
     while (!s.midi_queue().try_enqueue(note_off(0, n))) std::this_thread::yield();
   }
   REQUIRE(eventually([&] { return s.events() == 4000; }));
@@ -484,7 +487,7 @@ TEST_CASE("live: the mod wheel's vibrato reaches the link between events, and is
   FakeLink link;
   LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), kNoRefresh);
   s.start();
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft, monotonic_us())));
   REQUIRE(s.midi_queue().try_enqueue(control_change(0, kCcModWheel, 127, monotonic_us())));
   // With no further event the engine keeps moving the pitch: many different periods on motor 0.
   REQUIRE(eventually([&] {
@@ -501,7 +504,7 @@ TEST_CASE("live: every motor's state is sent again periodically", "[live]") {
   LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), 20);
   s.start();
   const uint32_t a4 = hz_to_period_q8(note_hz(69), kF);
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100)));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft)));
   // The held note and the silent motor come again and again; the refreshes are no latency sample.
   REQUIRE(eventually([&] {
     const auto e = entries_of(link.frames());
@@ -584,8 +587,8 @@ TEST_CASE("live: the engine and writer threads write only from inside real-time 
     FakeLink link(direct);
     LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kChannel), 50);
     s.start();
-    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, 100)));
-    REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, 100)));
+    REQUIRE(s.midi_queue().try_enqueue(note_on(0, 60, kSoft)));
+    REQUIRE(s.midi_queue().try_enqueue(note_on(1, 64, kSoft)));
     REQUIRE(eventually([&] { return s.events() == 2; }));
     std::this_thread::sleep_for(std::chrono::milliseconds(120));  // refreshes and a heartbeat
     s.stop();
@@ -611,7 +614,7 @@ TEST_CASE("live: jam - a live note goes out ahead of song frames already waiting
     REQUIRE(s.send_song_frame(0, wire.data(), wire.size()));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, 100, monotonic_us())));
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft, monotonic_us())));
   REQUIRE(eventually([&] {
     size_t at = 0;
     for (const auto &f : link.frames()) at += f[0] == sc::kMsgAt;

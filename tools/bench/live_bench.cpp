@@ -81,6 +81,8 @@ int main(int argc, char **argv) {
   MidiIn midi(stepchoir::MidiApi::kJack, Sender::kPort, session.midi_queue());
   session.start();
 
+  // Struck below the default double_at (live/velocity.h), so each note takes one motor.
+  constexpr uint8_t kVelocity = 64;
   // Each event changes one motor: even events strike note k, odd ones release note k-1, so a
   // note lasts two events and no event undoes one in the same JACK period.
   const double cpu0 = cpu_seconds();
@@ -89,7 +91,7 @@ int main(int argc, char **argv) {
     std::this_thread::sleep_until(start + std::chrono::duration<double>(i / rate_hz));
     const int k = i / 2;
     keys.send(i % 2 ? note_off(0, static_cast<uint8_t>(48 + (k + 36) % 37))
-                    : note_on(0, static_cast<uint8_t>(48 + k % 37), 100));
+                    : note_on(0, static_cast<uint8_t>(48 + k % 37), kVelocity));
   }
   const double send_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   keys.send(note_off(0, static_cast<uint8_t>(48 + (events / 2 - 1) % 37)));  // the last note struck
@@ -104,7 +106,7 @@ int main(int argc, char **argv) {
   for (int i = 0; i < onsets; ++i) {
     const uint8_t note = static_cast<uint8_t>(60 + i % 12);
     key_us.push_back(monotonic_us());
-    keys.send(note_on(0, note, 100));
+    keys.send(note_on(0, note, kVelocity));
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     keys.send(note_off(0, note));
     std::this_thread::sleep_for(std::chrono::milliseconds(30));

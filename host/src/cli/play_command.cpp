@@ -332,6 +332,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       std::copy(live_music.begin(), live_music.end(), alloc.motors.begin());
       alloc.a4_hz = rig.config.a4_hz;
       alloc.vibrato = rig.config.vibrato;
+      alloc.velocity = rig.config.velocity;
       alloc.priority = rig.config.priority;
       alloc.sing_percussion = rig.config.sing_percussion;
       session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, alloc);

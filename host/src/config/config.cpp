@@ -187,6 +187,22 @@ Policy parse_policy(const std::string &s) {
   throw std::invalid_argument("policy '" + s + "': expected poly, channel or mono");
 }
 
+namespace {
+
+// Called from: parse_config. [velocity]: the velocities (1-127, 0 = off) from which a poly note
+// takes a second and a third motor in unison (live/velocity.h).
+VelocityConfig read_velocity(const std::string &source, const toml::node &n) {
+  const toml::table *t = n.as_table();
+  if (!t) fail(source, n, "[velocity] must be a table");
+  known_keys(source, *t, {"double_at", "triple_at"}, "[velocity]");
+  VelocityConfig v;
+  v.double_at = static_cast<uint8_t>(get_int(source, *t, "double_at", 0, 127, v.double_at));
+  v.triple_at = static_cast<uint8_t>(get_int(source, *t, "triple_at", 0, 127, v.triple_at));
+  return v;
+}
+
+}  // namespace
+
 LiveConfig parse_config(const std::string &text, const std::string &source) {
   toml::table root;
   try {
@@ -195,7 +211,8 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     throw std::runtime_error(source + ":" + std::to_string(e.source().begin.line) + ":" +
                              std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
-  known_keys(source, root, {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "boards"}, "the top level");
+  known_keys(source, root, {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "boards"},
+             "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
   if (const toml::node *n = root.get("home_on_start")) {
@@ -241,6 +258,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
       c.vibrato.aftertouch = a->value_or(false);
     }
   }
+  if (const toml::node *n = root.get("velocity")) c.velocity = read_velocity(source, *n);
   if (const toml::node *n = root.get("boards")) {
     const toml::array *boards = n->as_array();
     if (!boards) fail(source, *n, "boards: expected [[boards]] tables");
@@ -312,6 +330,14 @@ depth_cents = 50.0
 fade_ms = 150.0
 # true: channel aftertouch sets the depth too (the larger of the wheel and the pressure).
 aftertouch = false
+
+[velocity]
+# poly: two motors in unison are louder than one. A note struck at velocity double_at or harder
+# takes a second free motor playing its pitch, at triple_at a third; never a motor that sounds
+# another note. Velocity 1-127; 0 turns a level off. (The CNC shield and RAMPS set microsteps
+# with jumpers, so velocity cannot choose full step or microsteps: doubling is what it does.)
+double_at = 100
+triple_at = 120
 
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
 # uses the first board's port; with no board and no --port, live, play and jam start the virtual

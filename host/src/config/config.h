@@ -40,6 +40,7 @@ struct LiveConfig {
   double a4_hz = kA4Hz;
   bool home_on_start = false;     // live, play and jam home the motors with switches first
   VibratoConfig vibrato;          // [vibrato]: the mod wheel's
+  VelocityConfig velocity;        // [velocity]: from which velocity a poly note takes a second and third motor
   std::vector<BoardSettings> boards;
 };
 

@@ -11,14 +11,31 @@
 //
 // Policies (AllocatorConfig::policy):
 //   kPoly     every channel shares every motor. A note takes a free motor that can play it;
-//             when none is free it steals one (Priority: the oldest note, or keeps the lowest
-//             notes, or keeps the highest notes). A stolen or refused note is forgotten: it
-//             does not come back when a motor frees up.
+//             when none is free it takes a doubler (below), else steals one (Priority: the
+//             oldest note, or keeps the lowest notes, or keeps the highest notes). A stolen or
+//             refused note is forgotten: it does not come back when a motor frees up.
 //   kChannel  MIDI channel n plays on motor n alone (channels >= motor_count are ignored),
 //             monophonic with last-note priority and note memory, as kMono.
 //   kMono     each channel owns a group of motors (AllocatorConfig::mono_channel). The channel
 //             plays one note at a time, in unison on every motor of its group; the last key
 //             pressed sounds, and releasing it returns to the most recent key still held.
+//
+// Velocity -> loudness (AllocatorConfig::velocity, live/velocity.h), kPoly only: a stepper has one
+// volume, but motors in unison are louder. A note-on at velocity >= double_at takes one free motor
+// more, >= triple_at two (by default 100 and 120; 0 or above 127: that level off). These doublers
+// are free motors only (doubling never stops a sounding note) whose own transpose, folding and
+// mutes give the very note the note's motor plays, the fewest octaves of folding first; they play
+// it with its channel's bend, vibrato (same phase) and glide, and their own tuning. A note-off, the
+// pedal's lift, all-notes-off, all-sound-off and panic end them with the note. The same key struck
+// again keeps its motor and gets the doublers its new velocity asks for (fewer: the highest motors
+// go). When a new note finds no motor free it takes a motor that sounds in unison with another
+// before it steals: the biggest unison first, a doubler before the note's own motor (then a doubler
+// becomes the note's own and the note sounds on), so a doubled note is never stolen while it has a
+// doubler. kMono groups are unison already and kChannel has one motor a channel: there velocity
+// changes nothing. Cost: a note-on that finds no motor free compares every pair of motors once (32
+// motors: 1,024 pairs).
+// On the supported rigs (Uno + CNC Shield V3, Mega + RAMPS 1.4) the drivers' microstep selects
+// M0-M2 are jumpers, not pins, so velocity cannot pick full step or microsteps: doubling only.
 //
 // Per motor: a playable range, octave folding into it, transpose, tuning offset and a set of
 // muted notes (resonances). Range and muted notes apply to the note the motor plays, that is
@@ -32,10 +49,10 @@
 // unless AllocatorConfig::sing_percussion is set (CC0 121 and a program change make a channel
 // melodic again).
 //
-// MIDI handled, per channel: note on/off (velocity 0 = off), sustain pedal (CC64), pitch bend
-// with a per-channel range (RPN 0 through CC101/100 + CC6/38), vibrato on the mod wheel (CC1)
-// and, when configured, channel aftertouch (live/vibrato.h), glide (CC65 on, CC5 its time:
-// live/glide.h; tick() moves both on between events), all-sound-off (CC120),
+// MIDI handled, per channel: note on/off (velocity 0 = off; a loud one doubles, above), sustain
+// pedal (CC64), pitch bend with a per-channel range (RPN 0 through CC101/100 + CC6/38), vibrato on
+// the mod wheel (CC1) and, when configured, channel aftertouch (live/vibrato.h), glide (CC65 on,
+// CC5 its time: live/glide.h; tick() moves both on between events), all-sound-off (CC120),
 // reset-all-controllers (CC121), all-notes-off (CC123; CC124-127 imply it, as MIDI says).
 // Channel mode messages act on the channel they arrive on, as MIDI defines; panic() acts on
 // everything. Every other message is ignored.
@@ -50,6 +67,7 @@
 #include "core/midi_event.h"
 #include "core/pitch.h"
 #include "live/glide.h"
+#include "live/velocity.h"
 #include "live/vibrato.h"
 #include "stepchoir_protocol.h"
 
@@ -88,6 +106,7 @@ struct AllocatorConfig {
   bool sing_percussion = false;  // true: percussion channels' notes take motors as pitches
   double a4_hz = kA4Hz;     // tuning reference for every motor
   VibratoConfig vibrato;    // the mod wheel's (and aftertouch's) vibrato
+  VelocityConfig velocity;  // kPoly: the velocities from which a note takes a second and third motor
   std::array<MotorConfig, kMaxMotors> motors{};
   // kMono only: the channel (0-15) whose group motor m belongs to, or -1 for none.
   std::array<int8_t, kMaxMotors> mono_channel = filled(-1);
@@ -109,6 +128,7 @@ struct MotorState {
   uint8_t played_note = 0;  // the note the motor plays: key + transpose, folded
   bool held = false;        // the key is down
   bool sustained = false;   // the key is up and the sustain pedal holds the note
+  bool doubling = false;    // an extra motor of a loud note, in unison with the note's own
   uint32_t period_q8 = sc::kPeriodSilent;  // current period, ticks q8, 0 = silent
 };
 
@@ -183,6 +203,7 @@ class Allocator {
     bool held = false, sustained = false;
     uint64_t started = 0;  // note-on sequence number (kPoly stealing)
     uint64_t onset_us = 0;  // when the motor began this note (its vibrato's phase)
+    bool doubler = false;   // kPoly: an extra motor of a loud note, in unison with its own motor
   };
 
   struct Channel {
@@ -204,14 +225,23 @@ class Allocator {
 
   bool is_poly() const noexcept { return config_.policy == Policy::kPoly; }
   void reset_state() noexcept;
-  void note_on(uint8_t ch, uint8_t note) noexcept;
+  void note_on(uint8_t ch, uint8_t note, uint8_t velocity) noexcept;
   void note_off(uint8_t ch, uint8_t note) noexcept;
   void control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept;
   void set_pedal(uint8_t ch, bool down) noexcept;
   void all_notes_off(uint8_t ch) noexcept;
   void all_sound_off(uint8_t ch) noexcept;
-  void poly_note_on(uint8_t ch, uint8_t note) noexcept;
+  void poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept;  // extra: doublers wanted
   size_t poly_victim(uint8_t note) const noexcept;  // kNone when the new note must yield
+  // kPoly velocity doubling. Motors m and p sound the same key of the same channel.
+  bool same_key(size_t m, size_t p) const noexcept;
+  size_t key_motors(size_t p) const noexcept;  // motors sounding p's key, p among them
+  // Gives the note on motor p (its own motor) `want` doublers: releases surplus ones, takes
+  // free motors in unison for missing ones while there are any.
+  void set_doublers(size_t p, uint8_t want) noexcept;
+  // No motor free: a motor in unison with another that can play `note`, kNone when none.
+  size_t spare_motor(uint8_t note) const noexcept;
+  void hand_over(size_t m) noexcept;  // motor m is taken: a doubler of its note becomes its own
   void mono_push(uint8_t ch, uint8_t note) noexcept;
   void mono_remove(uint8_t ch, uint8_t note) noexcept;
   void mono_update(uint8_t ch) noexcept;  // points the channel's group at its current note
