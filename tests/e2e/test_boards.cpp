@@ -3,7 +3,8 @@
 // play --port A --port B`: their motors form one pool, each board's clock is synced on its own,
 // and the notes of both line up in real time (the traces laid on the machine's monotonic clock).
 // `stepchoir render --vboard uno,mega` writes one WAV and one piano roll of both boards' motors.
-// A board lost mid-song: the other plays on, and it rejoins when it is back.
+// A board lost mid-song: the other plays on, and it rejoins when it is back. `stepchoir jam` on
+// two boards: the song on a motor of each, a JACK keyboard on the others of both.
 #include <catch2/catch.hpp>
 
 #include <sys/resource.h>
@@ -21,6 +22,8 @@
 
 #include "analysis.h"
 #include "board/child_process.h"
+#include "core/midi_event.h"
+#include "jack_rig.h"
 #include "merge.h"
 #include "play_checks.h"
 #include "score.h"
@@ -252,4 +255,71 @@ TEST_CASE("play: a board lost mid-song on two boards - the other plays on, and i
   CHECK(c.found == c.notes);
   CHECK(pct(c.onset_err_us, 0.99) < 500.0);
   CHECK(c.max_cents < 0.5);
+}
+
+TEST_CASE("jam: on two boards the song plays a motor of each and the keyboard the others of both",
+          "[play][jam][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string song = write_test_song("jam2.mid");
+  const std::string trace_a = scratch("jam2-a.csv"), trace_b = scratch("jam2-b.csv");
+  VboardProcess a({"--board", "uno", "--trace", trace_a, "--quiet", "--no-measure"});
+  VboardProcess b({"--board", "uno", "--trace", trace_b, "--quiet", "--no-measure"});
+  // The melody and the bass on A's motor 0 and B's motor 0 (pool motors 0 and 4).
+  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--midi-api", "jack", "--midi", Sender::kPort, "--port",
+                    a.pty(), "--port", b.pty(), "--song-motors", "0,4", "--quiet"},
+                   true);
+  std::string line, said;
+  while (jam.read_line(&line, 30000)) {
+    said += line + "\n";
+    if (line.rfind("jam: the song on motors 0,4", 0) == 0) break;
+  }
+  INFO(said);
+  REQUIRE(line.find("on motors 1,2,3,5,6,7") != std::string::npos);
+  using Key = Sender::Key;
+  // A five-note chord: three keys take A's free motors, two go to B's.
+  const std::vector<Key> script = {{1.6, 2.4, 60}, {1.6, 2.4, 64}, {1.6, 2.4, 67}, {1.6, 2.4, 72},
+                                   {1.6, 2.4, 76}, {2.8, 3.2, 55}};
+  keys.play(script);
+  const std::string out = jam.read_rest(60000);
+  REQUIRE(jam.wait() == 0);
+  a.stop();
+  b.stop();
+  INFO(out);
+  const tr::Trace ta = tr::read_trace(trace_a), tb = tr::read_trace(trace_b);
+  // The song: plan motor 0 on A's motor 0, plan motor 1 on B's motor 0, on time and in tune.
+  const Plan plan = plan_for(song, 2, 1.0, {1, 2});
+  REQUIRE(plan.unplayed.empty());
+  for (int board = 0; board < 2; ++board) {
+    Plan part;
+    for (PlannedNote n : plan.notes)
+      if (n.motor == board) n.motor = 0, part.notes.push_back(n);
+    REQUIRE_FALSE(part.notes.empty());
+    check_song(board ? "jam, the song on B" : "jam, the song on A", board ? tb : ta, part, 0, true);
+  }
+  // The keyboard: each key on one of the free motors of either board, at its pitch, about as
+  // long as held; the chord reached board B.
+  struct Played {
+    int board;
+    tr::NoteSegment seg;
+  };
+  std::vector<Played> live;
+  for (int m : {1, 2, 3}) {
+    for (const auto &seg : tr::segment_notes(ta.motor.at(size_t(m)).steps, ta.f_cpu_hz)) live.push_back({0, seg});
+    for (const auto &seg : tr::segment_notes(tb.motor.at(size_t(m)).steps, tb.f_cpu_hz)) live.push_back({1, seg});
+  }
+  CHECK(live.size() >= script.size());
+  CHECK(live.size() <= script.size() + 3);  // (a carriage turning at its rail's end splits one)
+  int on_b = 0;
+  for (const Key &k : script) {
+    INFO("key " << int{k.note});
+    const auto it = std::find_if(live.begin(), live.end(), [&](const Played &p) {
+      return std::fabs(p.seg.midi_note - k.note) < 0.01;  // within a cent
+    });
+    REQUIRE(it != live.end());
+    const tr::Trace &t = it->board ? tb : ta;
+    CHECK(double(it->seg.end_cycle - it->seg.start_cycle) / t.f_cpu_hz == Approx(k.off_s - k.on_s).margin(0.03));
+    on_b += it->board;
+  }
+  CHECK(on_b >= 2);
 }

@@ -340,23 +340,9 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   INFO(said);
   REQUIRE(line.find("on motors 2,3") != std::string::npos);
   // The keyboard, while the song plays (it starts a second and a bit after that line).
-  struct Key {
-    double on_s, off_s;
-    uint8_t note;
-  };
+  using Key = Sender::Key;
   const std::vector<Key> script = {{1.6, 1.9, 60}, {2.2, 2.6, 64}, {2.2, 2.6, 67}, {3.0, 3.3, 72}, {3.5, 3.9, 55}};
-  const double t0 = Sender::now_s();
-  std::vector<std::pair<double, stepchoir::MidiEvent>> events;
-  for (const Key &k : script) {
-    events.push_back({k.on_s, stepchoir::note_on(0, k.note, 64)});  // below [velocity] double_at: one motor
-    events.push_back({k.off_s, stepchoir::note_off(0, k.note)});
-  }
-  std::stable_sort(events.begin(), events.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
-  for (const auto &e : events) {
-    const double wait = t0 + e.first - Sender::now_s();
-    if (wait > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
-    keys.send(e.second);
-  }
+  keys.play(script);
   const std::string out = jam.read_rest(60000);
   REQUIRE(jam.wait() == 0);
   vb.stop();

@@ -6,12 +6,16 @@
 #include <RtMidi.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <utility>
+#include <vector>
 
 #include "board/child_process.h"
 #include "core/midi_event.h"
@@ -54,6 +58,27 @@ class Sender {
   }
   static double now_s() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  }
+  // One key of a script: pressed at on_s, released at off_s (s from the script's start).
+  struct Key {
+    double on_s, off_s;
+    uint8_t note;
+  };
+  // Plays a script on channel 1 at velocity 64 (below [velocity] double_at: one motor a key),
+  // each event at its time from now; returns when the last was sent.
+  void play(const std::vector<Key> &script) {
+    const double t0 = now_s();
+    std::vector<std::pair<double, stepchoir::MidiEvent>> events;
+    for (const Key &k : script) {
+      events.push_back({k.on_s, stepchoir::note_on(0, k.note, 64)});
+      events.push_back({k.off_s, stepchoir::note_off(0, k.note)});
+    }
+    std::stable_sort(events.begin(), events.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+    for (const auto &e : events) {
+      const double wait = t0 + e.first - now_s();
+      if (wait > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
+      send(e.second);
+    }
   }
 
  private:

@@ -183,10 +183,12 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   c->jam->add_option("--midi-api", c->midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))->default_val(c->midi_api);
   c->jam->add_option("--policy", c->policy, "Note allocation for the keyboard")
       ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
-  c->jam->add_option("--song-motors", c->song_motors, "The board's motors that play the song (the keyboard plays the rest)")
+  c->jam->add_option("--song-motors", c->song_motors,
+                     "The motors that play the song, numbered across the boards in their order (the keyboard plays "
+                     "the rest)")
       ->delimiter(',')->default_str("0,1");
-  c->jam->add_option("--port,-p", c->ports, "Board (none: the configuration's first board, else the virtual board, in "
-                                           "real time)");
+  c->jam->add_option("--port,-p", c->ports, "Board (repeat for several: their motors form one pool); none: the "
+                                           "configuration's boards, else the virtual board, in real time");
   c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
       ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
@@ -230,13 +232,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     if (paths.empty() && !rendering)
       for (const BoardSettings &b : rig.config.boards)
         if (!b.port.empty()) paths.push_back(b.port);
-    if (jamming && paths.size() > 1) throw std::runtime_error("jam plays on one board (give --port once)");
     // Without a board: the virtual boards of --vboard (several: one song on all), each with its
     // trace (the first at the path given, the others beside it: T-2.csv, ...).
     std::vector<std::unique_ptr<VirtualBoard>> vbs;
     std::vector<std::string> traces;
     if (paths.empty()) {
-      if (jamming && vboards.size() > 1) throw std::runtime_error("jam plays on one board (give --vboard once)");
       std::string trace = rendering ? keep_trace : vboard_trace;
       if (rendering && trace.empty()) trace = "/tmp/stepchoir-render-" + std::to_string(::getpid()) + ".csv";
       // No per-instruction interrupt accounting: a faster simulation keeps real time on a busy
@@ -267,10 +267,12 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       Caps caps;
       const BoardSettings *settings = nullptr;
       std::vector<uint8_t> song_ids;  // its motors that play the song
+      std::vector<uint8_t> live_ids;  // jam: its motors the keyboard plays
       std::optional<uint64_t> id;     // a board on a port: its id (config/board_memory.h)
       std::optional<BoardRecord> known;
     };
     std::vector<BoardRun> boards;
+    size_t pool_first = 0;  // jam: the pool number of this board's motor 0
     for (size_t b = 0; b < paths.size(); ++b) {
       BoardRun r;
       r.path = paths[b];
@@ -280,24 +282,26 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       r.settings = board_settings(rig, r.path, b);
       if (r.settings) configure_motors(*r.board, r.caps, *r.settings, r.path);
       if (rig.config.home_on_start && !rendering) home_board(*r.board, r.caps, r.settings, r.path, {}, say_line);
-      for (uint8_t m = 0; m < r.caps.motor_count; ++m)
-        if (!jamming || std::find(song_motors.begin(), song_motors.end(), m) != song_motors.end()) r.song_ids.push_back(m);
+      for (uint8_t m = 0; m < r.caps.motor_count; ++m) {
+        const int pooled = static_cast<int>(pool_first + m);
+        if (!jamming || std::find(song_motors.begin(), song_motors.end(), pooled) != song_motors.end())
+          r.song_ids.push_back(m);
+        else r.live_ids.push_back(m);
+      }
+      pool_first += r.caps.motor_count;
       boards.push_back(std::move(r));
     }
-    // Jam: the song's motors and the keyboard's.
-    const Caps &caps0 = boards[0].caps;
-    std::vector<uint8_t> live_ids;
+    // Jam: the song's motors and the keyboard's, across the boards.
     if (jamming) {
+      size_t song_count = 0, live_count = 0;
+      for (const BoardRun &r : boards) song_count += r.song_ids.size(), live_count += r.live_ids.size();
       for (int m : song_motors)
-        if (m < 0 || m >= caps0.motor_count)
-          throw std::runtime_error("--song-motors: motor " + std::to_string(m) + ": the board has motors 0-" +
-                                   std::to_string(caps0.motor_count - 1));
-      for (uint8_t m = 0; m < caps0.motor_count; ++m)
-        if (std::find(boards[0].song_ids.begin(), boards[0].song_ids.end(), m) == boards[0].song_ids.end())
-          live_ids.push_back(m);
-      if (boards[0].song_ids.empty() || live_ids.empty())
-        throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the board has " +
-                                 std::to_string(caps0.motor_count) + ")");
+        if (m < 0 || static_cast<size_t>(m) >= pool_first)
+          throw std::runtime_error("--song-motors: motor " + std::to_string(m) + ": the boards have motors 0-" +
+                                   std::to_string(pool_first - 1));
+      if (song_count == 0 || live_count == 0)
+        throw std::runtime_error("--song-motors: the song and the keyboard need at least one motor each (the boards have " +
+                                 std::to_string(pool_first) + ")");
     }
     // The song's motors of every board form one pool, in board order; plan motor k is pool[k].
     std::vector<uint8_t> pool_ids;
@@ -324,24 +328,30 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;
     if (jamming) {
-      // The live path owns the link (its writer sends live notes first); the song goes
-      // through it (JamLink). The live side plays the other motors.
-      LiveBoard lb{&boards[0].board->link(), static_cast<uint8_t>(live_ids.size()), caps0.f_cpu_hz, live_ids};
-      AllocatorConfig alloc = pool_config({lb}, parse_policy(policy));
-      const std::vector<MotorConfig> live_music = motor_music(boards[0].settings, caps0.f_cpu_hz, live_ids);
-      std::copy(live_music.begin(), live_music.end(), alloc.motors.begin());
+      // The live path owns every board's link (its writer sends live notes first); the song goes
+      // through it (JamLink). The keyboard plays the other motors of every board, one pool.
+      std::vector<LiveBoard> lbs;
+      for (const BoardRun &r : boards)
+        lbs.push_back(LiveBoard{&r.board->link(), static_cast<uint8_t>(r.live_ids.size()), r.caps.f_cpu_hz, r.live_ids});
+      AllocatorConfig alloc = pool_config(lbs, parse_policy(policy));
+      for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].live_ids.size(), ++b) {
+        const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, boards[b].caps.f_cpu_hz, boards[b].live_ids);
+        std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
+      }
       alloc.a4_hz = rig.config.a4_hz;
       alloc.vibrato = rig.config.vibrato;
       alloc.velocity = rig.config.velocity;
       alloc.priority = rig.config.priority;
       alloc.sing_percussion = rig.config.sing_percussion;
-      session = std::make_unique<LiveSession>(std::vector<LiveBoard>{lb}, alloc);
-      session->forward_replies(0);
+      session = std::make_unique<LiveSession>(lbs, alloc);
+      for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
       session->start();
-      std::string ids_song, ids_live;
-      for (uint8_t m : boards[0].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(m);
-      for (uint8_t m : live_ids) ids_live += (ids_live.empty() ? "" : ",") + std::to_string(m);
+      std::string ids_song, ids_live;  // pool numbers
+      for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].caps.motor_count, ++b) {
+        for (uint8_t m : boards[b].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(first + m);
+        for (uint8_t m : boards[b].live_ids) ids_live += (ids_live.empty() ? "" : ",") + std::to_string(first + m);
+      }
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
                   midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
       std::fflush(stdout);
@@ -372,7 +382,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       std::unique_ptr<Board> board = std::move(boards[b].board);
       if (jamming) {
         song_board_for_jam.push_back(std::move(board));
-        board = std::make_unique<Board>(std::make_unique<JamLink>(*session, 0, path));
+        board = std::make_unique<Board>(std::make_unique<JamLink>(*session, b, path));
       }
       players.push_back(std::make_unique<Player>(std::move(board), boards[b].caps, std::move(events[b]),
                                                  plan.duration_s, po, opener));

@@ -31,7 +31,7 @@ struct PlayCommand {
   std::string config;  // rig file ("" = the default location, if a file is there)
   SongSelection sel;
   // play
-  std::vector<std::string> ports;  // boards (none: the rig's, else the virtual board); jam: one
+  std::vector<std::string> ports;  // boards (none: the rig's, else the virtual board)
   std::vector<std::string> vboards{"uno"};  // without ports: the virtual boards to start
   std::string vboard_trace, vboard_link;    // vboard_link: empty = its default
   double clock_ppm = 0, lead_ms = 300, sync_s = 1.0;
@@ -41,7 +41,7 @@ struct PlayCommand {
   std::string out_wav, out_png, keep_trace;
   // jam
   std::string midi = "virtual", midi_api = "alsa", policy = "poly";
-  std::vector<int> song_motors{0, 1};
+  std::vector<int> song_motors{0, 1};  // pool numbers: the boards' motors in board order
 
   // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C
   // (the q key sets it too).

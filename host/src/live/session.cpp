@@ -34,7 +34,8 @@ LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &c
   for (LiveBoard lb : boards) {
     if (lb.motors.empty())
       for (uint8_t m = 0; m < lb.motor_count; ++m) lb.motors.push_back(m);
-    if (!lb.link || lb.motor_count == 0 || lb.motor_count > sc::kMaxMotors || lb.motors.size() != lb.motor_count)
+    // (A board with no motor of the pool carries a jam's song alone.)
+    if (!lb.link || lb.motor_count > sc::kMaxMotors || lb.motors.size() != lb.motor_count)
       throw std::invalid_argument("live: a board without a link or with an unusable motor count");
     for (uint8_t m : lb.motors)
       if (m >= sc::kMaxMotors) throw std::invalid_argument("live: a board motor index out of range");
