@@ -323,3 +323,28 @@ TEST_CASE("jam: on two boards the song plays a motor of each and the keyboard th
   }
   CHECK(on_b >= 2);
 }
+
+TEST_CASE("play: a board lost during its first clock sync is opened again and plays the song from its start",
+          "[play][safety][pacing]") {
+  const std::string song = write_test_song("lost-sync.mid");
+  const std::string link = scratch("lost-sync.pty"), trace2 = scratch("lost-sync-after.csv");
+  // A board met for the first time behind a 16U2 bridge: the open resets it (its bootloader
+  // holds 1.4 s), then its first sync takes a second or more.
+  auto vb = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link,
+                                                                     "--quiet"});
+  ChildProcess play({STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--port", link, "--quiet"}, true);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // half a second into the sync
+  vb.reset();  // the cable pulled ...
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  vb = std::make_unique<VboardProcess>(
+      std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link, "--trace", trace2, "--quiet"});
+  const std::string out = play.read_rest(60000);  // ... and back
+  const int status = play.wait();
+  vb->stop();
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("reconnects 1") != std::string::npos);
+  // Every note of the song on the board that came back, on time and in tune.
+  const tr::Trace t = tr::read_trace(trace2);
+  check_song("play, a board lost in its first sync", t, plan_for(song, size_t(t.motors), 1.0, {1, 2}));
+}

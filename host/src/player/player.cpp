@@ -313,11 +313,11 @@ void Player::silence() {
 }
 
 // Called from: run when the board was lost (link failed) or restarted (its clock began
-// again). Opens it again (retrying up to reconnect_s), says hello, syncs the clock and carries
-// on where the song is now: what should sound is restored at once. False when it cannot.
-bool Player::reconnect(const std::atomic<bool> &stop) {
+// again), before the song (its first sync) or during it. Opens it again (retrying up to
+// reconnect_s) and says hello; the clock fit starts again, the rate measured so far its prior.
+// False when the board does not come back.
+bool Player::reopen(const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
-  const double lost_at_s = score_now(start);  // the old board's clock, as last fitted
   for (;;) {
     if (stop.load()) return false;
     try {
@@ -347,8 +347,17 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   if (sync_.has_rate()) sync_.set_prior(sync_.ticks_per_s(), sync_.rate_sigma_ppm());
   sync_.reset();
   queued_ticks_.clear();
-  if (!sync_clock(0.2, false, stop)) return false;
   ++stats_.reconnects;
+  return true;
+}
+
+// Called from: run when the board was lost or restarted mid-song. Opens it again, syncs the
+// clock and carries on where the song is now: what should sound is restored at once. False
+// when it cannot.
+bool Player::reconnect(const std::atomic<bool> &stop) {
+  const uint64_t start = monotonic_us();
+  const double lost_at_s = score_now(start);  // the old board's clock, as last fitted
+  if (!reopen(stop) || !sync_clock(0.2, false, stop)) return false;
   const uint64_t now = monotonic_us();
   const double at_s = lost_at_s + (now - start) / 1e6 + opt_.lead_s;  // the song went on meanwhile
   // The new fit sets the offset; its rate is the prior until its samples say more.
@@ -365,9 +374,12 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   // The board's counters from here on, so that the report at the end is this song's (a board
   // that waited for its host has a watchdog trip on record).
   if (opt_.exclusive) send_payload({sc::kMsgResetCounters});
-  if (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, true, stop)) {
-    silence();
-    return stop.load();
+  // A board lost (or reset) during its first sync is opened again and synced from the start.
+  while (!sync_clock(opt_.board_time ? 0.02 : opt_.sync_s, true, stop)) {
+    if (stop.load() || !(board_lost_ || board_restarted_) || !reopen(stop)) {
+      silence();
+      return stop.load();
+    }
   }
   uint64_t begin = monotonic_us();
   // Several boards: one start for all, once every board is synced; this board's clock is

@@ -122,6 +122,7 @@ class Player {
   bool send_due(uint64_t now_us);
   bool send_at(double ticks, const std::vector<sc::PeriodEntry> &entries);
   bool restore_at(double score_s);           // entries for what sounds at score_s, at its time
+  bool reopen(const std::atomic<bool> &stop);
   bool reconnect(const std::atomic<bool> &stop);
   void silence();
 
