@@ -122,6 +122,17 @@ inline std::string run_stepchoir_all(const std::vector<std::string> &args, int *
   return out;
 }
 
+// Reads p's lines until one starts with prefix (up to 30 s between lines); that line ("" if
+// none came), and everything read in *said.
+inline std::string wait_for_line(ChildProcess &p, const std::string &prefix, std::string *said) {
+  std::string line;
+  while (p.read_line(&line, 30000)) {
+    *said += line + "\n";
+    if (line.rfind(prefix, 0) == 0) return line;
+  }
+  return "";
+}
+
 inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
   std::printf("%s: %zu notes turned round; ", what, c.turned);
   std::printf("%s: %zu/%zu notes, onset error p50 %.1f us p99 %.1f us max %.1f us, tempo %+.1f ppm, pitch worst "

@@ -269,11 +269,8 @@ TEST_CASE("jam: on two boards the song plays a motor of each and the keyboard th
   ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--midi-api", "jack", "--midi", Sender::kPort, "--port",
                     a.pty(), "--port", b.pty(), "--song-motors", "0,4", "--quiet"},
                    true);
-  std::string line, said;
-  while (jam.read_line(&line, 30000)) {
-    said += line + "\n";
-    if (line.rfind("jam: the song on motors 0,4", 0) == 0) break;
-  }
+  std::string said;
+  const std::string line = wait_for_line(jam, "jam: the song on motors 0,4", &said);
   INFO(said);
   REQUIRE(line.find("on motors 1,2,3,5,6,7") != std::string::npos);
   using Key = Sender::Key;

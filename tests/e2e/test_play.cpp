@@ -332,11 +332,8 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--midi-api", "jack", "--midi", Sender::kPort,
                     "--port", vb.pty(), "--song-motors", "0,1", "--quiet"},
                    true);
-  std::string line, said;
-  while (jam.read_line(&line, 30000)) {
-    said += line + "\n";
-    if (line.rfind("jam: the song on motors 0,1", 0) == 0) break;
-  }
+  std::string said;
+  const std::string line = wait_for_line(jam, "jam: the song on motors 0,1", &said);
   INFO(said);
   REQUIRE(line.find("on motors 2,3") != std::string::npos);
   // The keyboard, while the song plays (it starts a second and a bit after that line).

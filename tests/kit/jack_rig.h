@@ -56,6 +56,11 @@ class Sender {
     out_.sendMessage(m, 3);
     return now_s();
   }
+  // Sends a one-byte system message (a MIDI clock's tick, Start, Stop, Continue).
+  double send_byte(uint8_t status) {
+    out_.sendMessage(&status, 1);
+    return now_s();
+  }
   static double now_s() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
   }

@@ -23,6 +23,7 @@
 #include "core/pitch.h"
 #include "live/midi_in.h"
 #include "live/session.h"
+#include "player/midi_clock.h"
 #include "player/plan.h"
 #include "player/player.h"
 #include "player/start_gate.h"
@@ -181,6 +182,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   selection(c->jam);
   c->jam->add_option("--midi", c->midi, "MIDI input: index, part of its name, or virtual[:NAME]")->default_val(c->midi);
   c->jam->add_option("--midi-api", c->midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))->default_val(c->midi_api);
+  c->jam->add_flag("--midi-clock", c->midi_clock,
+                   "The song follows the MIDI input's clock: its tempo, Start, Stop, Continue and song position");
   c->jam->add_option("--policy", c->policy, "Note allocation for the keyboard")
       ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
   c->jam->add_option("--song-motors", c->song_motors,
@@ -327,6 +330,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     }
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;
+    // jam --midi-clock: one clock queue and timeline a board's player.
+    std::vector<std::unique_ptr<ClockQueue>> clock_queues;
+    std::vector<std::unique_ptr<MidiClockTimeline>> timelines;
+    if (jamming && midi_clock && (sel.tempo != 1.0 || sel.start_s != 0))
+      throw std::runtime_error("--midi-clock: the clock sets the tempo and the position (no --tempo or --start)");
     if (jamming) {
       // The live path owns every board's link (its writer sends live notes first); the song goes
       // through it (JamLink). The keyboard plays the other motors of every board, one pool.
@@ -346,6 +354,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       session = std::make_unique<LiveSession>(lbs, alloc);
       for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
+      for (size_t b = 0; midi_clock && b < boards.size(); ++b) {
+        clock_queues.push_back(std::make_unique<ClockQueue>(4096));
+        midi_in->route_clock(*clock_queues.back());
+        timelines.push_back(std::make_unique<MidiClockTimeline>(*clock_queues.back(), song.tempo));
+      }
       session->start();
       std::string ids_song, ids_live;  // pool numbers
       for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].caps.motor_count, ++b) {
@@ -354,6 +367,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
                   midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
+      if (midi_clock) std::printf("jam: the song follows the MIDI clock: waiting for Start\n");
       std::fflush(stdout);
     }
     // One player a board; with several, they take one start (StartGate) and play on their own
@@ -376,6 +390,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         po.crystal_sigma_ppm = boards[b].known->sigma_ppm;
       }
       if (boards.size() > 1) po.start_gate = [&gate, b](uint64_t now_us) { return gate.ready(b, now_us); };
+      if (!timelines.empty()) po.song_clock = timelines[b].get();
       LinkOpener opener;
       const std::string path = boards[b].path;
       if (!jamming) opener = [path] { return open_link(path); };  // jam: the live path reconnects
@@ -406,6 +421,10 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     if (jamming) {
       midi_in.reset();  // no more callbacks
       session->stop();  // the keyboard's motors silent, then stop-all
+      if (!timelines.empty())
+        std::printf("jam: MIDI clock: %llu ticks, %llu of them lost on the way and put back by their time\n",
+                    static_cast<unsigned long long>(timelines[0]->follower().ticks()),
+                    static_cast<unsigned long long>(timelines[0]->follower().lost_ticks()));
       std::printf("jam: %llu MIDI events, latency p50 %llu us, p99 %llu us\n",
                   static_cast<unsigned long long>(session->events()),
                   static_cast<unsigned long long>(session->latency().percentile(0.5)),

@@ -42,6 +42,7 @@ struct PlayCommand {
   // jam
   std::string midi = "virtual", midi_api = "alsa", policy = "poly";
   std::vector<int> song_motors{0, 1};  // pool numbers: the boards' motors in board order
+  bool midi_clock = false;             // the song follows the MIDI input's clock
 
   // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C
   // (the q key sets it too).

@@ -20,6 +20,13 @@ constexpr uint8_t kMidiNoteOff = 0x80;
 constexpr uint8_t kMidiNoteOn = 0x90;
 constexpr uint8_t kMidiControlChange = 0xB0;
 constexpr uint8_t kMidiProgramChange = 0xC0;
+// System messages of a MIDI clock (jam --midi-clock): 24 ticks a quarter note, Start (from the
+// top), Continue (from the Song Position Pointer), Stop; the pointer counts sixteenths.
+constexpr uint8_t kMidiSongPosition = 0xF2;
+constexpr uint8_t kMidiClockTick = 0xF8;
+constexpr uint8_t kMidiClockStart = 0xFA;
+constexpr uint8_t kMidiClockContinue = 0xFB;
+constexpr uint8_t kMidiClockStop = 0xFC;
 constexpr uint8_t kMidiChannelPressure = 0xD0;  // aftertouch of the whole channel
 constexpr uint8_t kMidiPitchBend = 0xE0;
 

@@ -131,8 +131,36 @@ bool parse_midi_message(const unsigned char *bytes, size_t len, uint64_t t_us, M
   return true;
 }
 
+bool parse_clock_message(const unsigned char *bytes, size_t len, uint64_t t_us, ClockMessage *out) noexcept {
+  if (len < 1) return false;
+  const uint8_t s = bytes[0];
+  if (s == kMidiSongPosition) {
+    if (len < 3) return false;
+    *out = ClockMessage{s, static_cast<uint16_t>((bytes[1] & 0x7F) | ((bytes[2] & 0x7F) << 7)), t_us};
+    return true;
+  }
+  if (s != kMidiClockTick && s != kMidiClockStart && s != kMidiClockContinue && s != kMidiClockStop) return false;
+  *out = ClockMessage{s, 0, t_us};
+  return true;
+}
+
+void MidiIn::route_clock(ClockQueue &queue) {
+  for (auto &slot : clock_) {
+    ClockQueue *none = nullptr;
+    if (slot.compare_exchange_strong(none, &queue)) break;
+  }
+  if (in_) in_->ignoreTypes(true, false, true);  // sysex and active sensing still ignored
+}
+
 void MidiIn::on_message(const unsigned char *bytes, size_t len) noexcept {
   RtScope rt;
+  ClockMessage m;
+  if (parse_clock_message(bytes, len, monotonic_us(), &m)) {
+    for (auto &slot : clock_)
+      if (ClockQueue *q = slot.load(std::memory_order_acquire))
+        if (!q->try_enqueue(m)) clock_dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;  // (a clock message is no channel message)
+  }
   MidiEvent ev;
   if (!parse_midi_message(bytes, len, monotonic_us(), &ev)) return;
   if (queue_.try_enqueue(ev))

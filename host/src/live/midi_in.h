@@ -27,6 +27,20 @@ namespace stepchoir {
 // until an event comes (a lightweight semaphore: an atomic, and a futex wake when it sleeps).
 using MidiQueue = moodycamel::BlockingReaderWriterQueue<MidiEvent>;
 
+// A MIDI clock message (kMidiClockTick, kMidiClockStart, kMidiClockContinue, kMidiClockStop,
+// kMidiSongPosition with its position in sixteenths) and when it came (monotonic_us). The MIDI
+// callback fills the queue (route_clock), the song player drains it (player/midi_clock.h).
+struct ClockMessage {
+  uint8_t status = 0;
+  uint16_t position = 0;
+  uint64_t t_us = 0;
+};
+using ClockQueue = moodycamel::ReaderWriterQueue<ClockMessage>;
+
+// A raw message -> ClockMessage stamped t_us; false for anything else. Called from: the MIDI
+// callback (and tests). Does not allocate.
+bool parse_clock_message(const unsigned char *bytes, size_t len, uint64_t t_us, ClockMessage *out) noexcept;
+
 enum class MidiApi : uint8_t { kAlsa, kJack };
 
 // "alsa" / "jack" -> MidiApi; throws std::invalid_argument naming the value otherwise.
@@ -71,6 +85,13 @@ class MidiIn {
   bool still_there();
   // Events lost because the queue was full. Called from: any thread.
   uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+  // From now on the clock's messages go to `queue` too (built with a capacity: the callback
+  // only try_enqueues; one a song player, at most kClockQueues), timing messages no longer
+  // ignored. Called from: setup code, before the song plays (jam --midi-clock).
+  static constexpr size_t kClockQueues = 8;
+  void route_clock(ClockQueue &queue);
+  // Clock messages lost because their queue was full. Called from: any thread.
+  uint64_t clock_dropped() const { return clock_dropped_.load(std::memory_order_relaxed); }
   // Channel messages enqueued so far. Called from: any thread.
   uint64_t received() const { return received_.load(std::memory_order_relaxed); }
 
@@ -86,6 +107,8 @@ class MidiIn {
   bool is_virtual_ = false;
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> received_{0};
+  std::atomic<ClockQueue *> clock_[kClockQueues] = {};
+  std::atomic<uint64_t> clock_dropped_{0};
 };
 
 }  // namespace stepchoir

@@ -191,10 +191,37 @@ bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> 
   return false;
 }
 
-double Player::event_ticks(double score_s) const { return anchor_ticks_ + (score_s - anchor_s_) * rate_; }
+double Player::event_ticks(double score_s) const {
+  if (opt_.song_clock) return std::max(sent_ticks_, sync_.ticks_at(opt_.song_clock->host_us(score_s)));
+  return anchor_ticks_ + (score_s - anchor_s_) * rate_;
+}
 
 double Player::score_now(uint64_t now_us) const {
+  if (opt_.song_clock) return opt_.song_clock->locked() ? opt_.song_clock->score_at(static_cast<double>(now_us)) : sent_score_;
   return anchor_s_ + (sync_.ticks_at(static_cast<double>(now_us)) - anchor_ticks_) / rate_;
+}
+
+// Called from: run, each pass, with a song clock. A start (or continue) silences what the song
+// played and, once the clock's grid is known, restores what sounds at its position and plays
+// on from there; a stop silences the song. True while the song plays.
+bool Player::follow_clock() {
+  SongClock &c = *opt_.song_clock;
+  c.poll();
+  if (c.starts() != clock_starts_) {
+    clock_starts_ = c.starts();
+    if (clock_playing_) silence();
+    clock_playing_ = false;
+    clock_pending_ = true;
+  }
+  if (clock_pending_ && c.running() && c.locked()) {
+    clock_pending_ = false;
+    sent_ticks_ = 0;
+    clock_playing_ = restore_at(c.start_score_s());
+  } else if (clock_playing_ && !c.running()) {
+    silence();
+    clock_playing_ = false;
+  }
+  return clock_playing_;
 }
 
 // Called from: run (start, resume) and reconnect. Song time score_s plays one lead after
@@ -218,7 +245,7 @@ void Player::anchor(double score_s, uint64_t now_us) {
 // entry reordered), and the notes not yet sent get their times and periods at the refined
 // rate (a held note keeps its period).
 void Player::follow_rate() {
-  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || !sync_.has_rate() ||
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || opt_.song_clock || !sync_.has_rate() ||
       sync_.rate_sigma_ppm() > kRateSigmaPpm)
     return;
   anchor_ticks_ = event_ticks(sent_score_);
@@ -291,6 +318,7 @@ bool Player::restore_at(double score_s) {
 bool Player::send_at(double ticks, const std::vector<sc::PeriodEntry> &entries) {
   const uint32_t at = static_cast<uint32_t>(static_cast<uint64_t>(std::llround(ticks)));
   if (!send_payload(at_payload(at, entries))) return false;
+  sent_ticks_ = ticks;
   stats_.entries_sent += entries.size();
   queued_ticks_.insert(queued_ticks_.end(), entries.size(), ticks);
   return true;
@@ -414,7 +442,7 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
       return false;
     }
     uint64_t now = monotonic_us();
-    if (pause.load() != paused) {
+    if (!opt_.song_clock && pause.load() != paused) {
       paused = !paused;
       if (paused) {
         paused_at = score_now(now);
@@ -427,7 +455,8 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     // A clock request only on an idle line: one queued behind note frames reaches the board
     // late, and its sample would read the board's clock as ahead.
     if (now >= last_clock_us_ + clock_every_us && static_cast<double>(now) >= line_free_us_) send_clock_request(now);
-    if (!paused && !send_due(now)) continue;
+    const bool on_clock = !opt_.song_clock || follow_clock();
+    if (!paused && on_clock && !send_due(now)) continue;
     if (!read_replies(1)) continue;
     now = monotonic_us();
     const double pos = paused ? paused_at : score_now(now);

@@ -39,6 +39,20 @@
 
 namespace stepchoir {
 
+// A clock the song follows instead of its own time (jam --midi-clock: player/midi_clock.h).
+// Called from: the player's thread only, each pass of its loop.
+class SongClock {
+ public:
+  virtual ~SongClock() = default;
+  virtual void poll() = 0;                            // takes what came since the last call
+  virtual uint64_t starts() const = 0;                // starts (and continues) so far
+  virtual bool running() const = 0;                   // started and not stopped
+  virtual bool locked() const = 0;                    // its grid is known: host_us answers
+  virtual double start_score_s() const = 0;           // the song time the last start began at
+  virtual double host_us(double score_s) const = 0;   // when a song time plays (monotonic_us)
+  virtual double score_at(double host_us) const = 0;  // the song time at a host time
+};
+
 struct PlayerOptions {
   bool board_time = false;       // render: the board's ticks are the timeline
   double lead_s = 0.3;           // entries go to the board this long before their time
@@ -58,6 +72,9 @@ struct PlayerOptions {
   // with the host time (us), and again every millisecond while it returns 0; then it returns
   // the host time that every board takes for the song's start. Empty: this board alone.
   std::function<uint64_t(uint64_t now_us)> start_gate;
+  // Not null: the song follows this clock (it starts, stops and continues it; no loop, no
+  // pause, the timeline's own rate unused). Owned by the caller, who keeps it alive.
+  SongClock *song_clock = nullptr;
 };
 
 // What the player did, for the progress line, the final report and tests.
@@ -149,10 +166,14 @@ class Player {
   void anchor(double score_s, uint64_t now_us);  // sets the timeline: score_s one lead after now
   void follow_rate();                         // the timeline takes the fit's refined rate
   double sent_score_ = 0;   // song time of the last entry sent (the pivot for follow_rate)
+  double sent_ticks_ = 0;   // its board ticks: a clock's refit never sends an entry before it
+  bool follow_clock();      // song_clock: starts and stops the song; true while it plays
   bool playing_ = false;    // the timeline is set: follow_rate may move it
   size_t cursor_ = 0;       // next event to send
   unsigned loop_ = 0;       // loop of the next event
   std::deque<double> queued_ticks_;  // entries the board may still hold (their ticks)
+  uint64_t clock_starts_ = 0;        // song_clock: its starts seen so far
+  bool clock_playing_ = false, clock_pending_ = false;  // ... the song plays / waits for its grid
   std::FILE *clock_log_ = nullptr;
 };
 

@@ -363,6 +363,9 @@ class MidiParser {
     warn(unmatched_offs_, "note-offs without a sounding note (ignored)");
     warn(zero_length_, "notes of zero length (dropped)");
     warn(skipped_chunks_, "chunks of unknown type (skipped)");
+    if (map.smpte_s_per_tick == 0)  // (SMPTE time has no beats)
+      for (size_t i = 0; i < map.changes.size(); ++i)
+        song.tempo.push_back({map.start_s[i], double(map.changes[i].tick) / map.ppq, map.changes[i].us_per_qn * 1e-6});
     finish_song(song, map.seconds(end_tick_));
     return song;
   }

@@ -322,6 +322,7 @@ class MusicXmlParser {
       song.notes.push_back(n);
     }
     if (song.notes.empty()) throw SongError(name_ + ": no notes in any part");
+    for (size_t i = 0; i < map.size(); ++i) song.tempo.push_back({at_s[i], map[i].beat, 60 / map[i].bpm});
     finish_song(song, seconds(end_beat_));
     return song;
   }

@@ -179,6 +179,7 @@ Song read_sng(std::string_view text, const std::string &name) {
     p.song.warnings.push_back(name + ":" + std::to_string(p.channels_line) + ": CHANNELS " +
                               std::to_string(*p.declared_channels) + " but the file has " +
                               std::to_string(p.song.track_count) + " channel blocks; reading all of them");
+  p.song.tempo = {{0, 0, 60.0 / *p.bpm}};
   finish_song(p.song, p.end_beats * 60.0 / *p.bpm);
   return std::move(p.song);
 }

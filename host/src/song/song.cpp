@@ -68,6 +68,22 @@ void finish_song(Song &song, double end_s) {
   for (const auto &n : song.notes) song.duration_s = std::max(song.duration_s, n.onset_s + n.duration_s);
 }
 
+double song_beat(const Song &song, double s) {
+  if (song.tempo.empty()) return s / 0.5;
+  auto it = std::upper_bound(song.tempo.begin(), song.tempo.end(), s,
+                             [](double x, const TempoPoint &p) { return x < p.time_s; });
+  const TempoPoint &p = it == song.tempo.begin() ? *it : *std::prev(it);
+  return p.beat + (s - p.time_s) / p.s_per_beat;
+}
+
+double song_seconds(const Song &song, double beat) {
+  if (song.tempo.empty()) return beat * 0.5;
+  auto it = std::upper_bound(song.tempo.begin(), song.tempo.end(), beat,
+                             [](double b, const TempoPoint &p) { return b < p.beat; });
+  const TempoPoint &p = it == song.tempo.begin() ? *it : *std::prev(it);
+  return p.time_s + (beat - p.beat) * p.s_per_beat;
+}
+
 Song read_song_file(const std::string &path, const TabOptions &tab) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
   if (!f) throw SongError(path + ": cannot open: " + std::strerror(errno));

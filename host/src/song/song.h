@@ -27,6 +27,14 @@ struct SongNote {
                            // bank select chose a drum kit (GM2 bank 120, XG bank 127)
 };
 
+// The tempo from a point of a song on: where (seconds, and quarter-note beats from the start)
+// and how fast (seconds a quarter note).
+struct TempoPoint {
+  double time_s = 0;
+  double beat = 0;
+  double s_per_beat = 0.5;
+};
+
 // A whole song. Notes are sorted by onset, then track, channel and note.
 struct Song {
   std::vector<SongNote> notes;
@@ -35,7 +43,13 @@ struct Song {
   std::vector<std::string> track_names;  // one per track: its name (MIDI Sequence/Track Name, or
                                          // Instrument Name), printable ASCII; "" when it has none
   std::vector<std::string> warnings;  // things accepted but worth telling the user (file:line: ...)
+  std::vector<TempoPoint> tempo;      // tempo map, by time, the first at 0; empty: 120 bpm throughout
 };
+
+// Quarter-note beats from the song's start at song time s, and back, through its tempo map.
+// Called from: jam following a MIDI clock (player/midi_clock.h), tests.
+double song_beat(const Song &song, double s);
+double song_seconds(const Song &song, double beat);
 
 // A song file that cannot be read: what() names the file and where (line, or byte offset and
 // chunk) and what was expected.

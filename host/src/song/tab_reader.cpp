@@ -162,6 +162,7 @@ Song read_tab(std::string_view text, const std::string &name, const TabOptions &
   if (systems == 0)
     throw SongError(name + ": no tab system (a rhythm row above six string rows, each ending with '|')");
   if (song.notes.empty()) throw SongError(name + ": no notes: every column is a rest");
+  song.tempo = {{0, 0, seconds_per_beat}};
   finish_song(song, now);
   return song;
 }

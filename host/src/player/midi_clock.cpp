@@ -1,0 +1,109 @@
+// midi_clock.cpp: see midi_clock.h.
+#include "player/midi_clock.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace stepchoir {
+
+void ClockFollower::take(const ClockMessage &m) {
+  switch (m.status) {
+    case kMidiClockTick: {
+      const double us = static_cast<double>(m.t_us);
+      if (count_ >= 2 && slope_ > 0) {
+        const double gap = (us - last_us_) / slope_;  // in the grid's tick periods
+        if (pending_lost_ > 0) {  // the last tick came after a long gap: on time, or late?
+          if (gap >= 0.5) {  // on time (this one a period after it): the ticks before it were lost
+            ring_[(next_ - 1) % kWindow].n += pending_lost_;
+            ticks_ += pending_lost_;
+            lost_ += static_cast<uint64_t>(pending_lost_);
+          } else {  // late, with this one: out of the fit
+            --next_;
+            --count_;
+          }
+          pending_lost_ = 0;
+        }
+        last_us_ = us;
+        if (gap < 0.5) {  // held up and delivered with the one before: counted, not fitted
+          ++ticks_;
+          break;
+        }
+        const int64_t whole = std::llround(gap);
+        if (whole >= 2 && whole <= kMaxLostRun) pending_lost_ = whole - 1;
+      }
+      last_us_ = us;
+      ring_[next_ % kWindow] = {ticks_, us};
+      ++next_;
+      ++ticks_;
+      count_ = std::min(count_ + 1, kWindow);
+      fit();
+      break;
+    }
+    case kMidiClockStart:  // the next tick is beat 0
+      zero_tick_ = ticks_;
+      start_beat_ = 0;
+      running_ = true;
+      ++starts_;
+      break;
+    case kMidiClockContinue:  // the next tick is the song position's
+      start_beat_ = position_ / 4.0;
+      zero_tick_ = ticks_ - static_cast<int64_t>(position_) * (kTicksPerBeat / 4);
+      running_ = true;
+      ++starts_;
+      break;
+    case kMidiClockStop:
+      running_ = false;
+      break;
+    case kMidiSongPosition:
+      position_ = m.position;
+      break;
+    default:
+      break;
+  }
+}
+
+// Least squares through the ring's ticks: t = intercept_ + slope_ * n.
+void ClockFollower::fit() {
+  if (count_ < 2) return;
+  // Relative to the oldest tick in the ring (sums of small numbers: no cancellation).
+  const Tick &oldest = ring_[(next_ - count_) % kWindow];
+  double sn = 0, st = 0, snn = 0, snt = 0;
+  for (size_t i = next_ - count_; i < next_; ++i) {
+    const Tick &k = ring_[i % kWindow];
+    const double x = static_cast<double>(k.n - oldest.n), t = k.us - oldest.us;
+    sn += x, st += t, snn += x * x, snt += x * t;
+  }
+  const double k = static_cast<double>(count_);
+  slope_ = (k * snt - sn * st) / (k * snn - sn * sn);
+  intercept_ = oldest.us + (st - slope_ * sn) / k - slope_ * static_cast<double>(oldest.n);
+}
+
+double ClockFollower::host_us_at(double beat) const {
+  return intercept_ + slope_ * (static_cast<double>(zero_tick_) + beat * kTicksPerBeat);
+}
+
+double ClockFollower::beat_at(double host_us) const {
+  return ((host_us - intercept_) / slope_ - static_cast<double>(zero_tick_)) / kTicksPerBeat;
+}
+
+MidiClockTimeline::MidiClockTimeline(ClockQueue &queue, std::vector<TempoPoint> tempo, double speed)
+    : queue_(queue), speed_(speed) {
+  tempo_song_.tempo = std::move(tempo);
+}
+
+void MidiClockTimeline::poll() {
+  ClockMessage m;
+  while (queue_.try_dequeue(m)) follower_.take(m);
+}
+
+double MidiClockTimeline::start_score_s() const { return song_seconds(tempo_song_, follower_.start_beat()) / speed_; }
+
+double MidiClockTimeline::host_us(double score_s) const {
+  return follower_.host_us_at(song_beat(tempo_song_, score_s * speed_));
+}
+
+double MidiClockTimeline::score_at(double host_us) const {
+  return song_seconds(tempo_song_, follower_.beat_at(host_us)) / speed_;
+}
+
+}  // namespace stepchoir

@@ -1,0 +1,96 @@
+// midi_clock.h: jam following an external MIDI clock (24 ticks a quarter note, Start, Stop,
+// Continue, Song Position Pointer): the clock's beat grid smoothed against its jitter, and the
+// song's time laid on it through the song's tempo map.
+//
+// ClockFollower is the pure part: it takes clock messages with their host times and fits a
+// line through the last kWindow ticks (least squares: a DAW's clock jitters by a millisecond or
+// so, the line by a fraction of that), so a beat's host time is known ahead, and a tempo change
+// is followed within one beat. Ticks count while the clock is stopped too (DAWs send them), so
+// the grid is known before Start: the tick after Start is beat 0, the tick after Continue the
+// song position's.
+//
+// MidiClockTimeline is the player's SongClock (player.h): it drains the ClockQueue the MIDI
+// callback fills, and maps song seconds to host time through the follower and the tempo map.
+// Called from: the player's thread only. Its messages come from MidiIn (live/midi_in.h).
+#ifndef STEPCHOIR_HOST_PLAYER_MIDI_CLOCK_H
+#define STEPCHOIR_HOST_PLAYER_MIDI_CLOCK_H
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "live/midi_in.h"
+#include "player/player.h"
+#include "song/song.h"
+
+namespace stepchoir {
+
+class ClockFollower {
+ public:
+  static constexpr int kTicksPerBeat = 24;
+  static constexpr size_t kWindow = 24;  // ticks the line is fitted through: one beat
+  static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
+
+  // Takes one message (kMidiClock*), in arrival order.
+  void take(const ClockMessage &m);
+
+  bool running() const { return running_; }
+  uint64_t starts() const { return starts_; }        // Start and Continue messages taken
+  double start_beat() const { return start_beat_; }  // where the last one began (quarter notes)
+  bool locked() const { return count_ >= 2; }        // the grid is known (two ticks or more)
+  // Host time (us) of a beat (quarter notes from the song's start), and back. Locked only.
+  double host_us_at(double beat) const;
+  double beat_at(double host_us) const;
+  double us_per_beat() const { return slope_ * kTicksPerBeat; }
+  // Ticks taken, and ticks found missing: a tick that comes two or more of the grid's tick
+  // periods after the one before stands for those it follows (a lossy MIDI path) once the next
+  // comes a period after it; when the next comes right after it, it was late instead (a stalled
+  // path delivers its ticks together), and late ticks are counted but kept out of the fit.
+  uint64_t ticks() const { return static_cast<uint64_t>(ticks_); }
+  uint64_t lost_ticks() const { return lost_; }
+
+ private:
+  void fit();
+  struct Tick {
+    int64_t n = 0;   // its number on the grid
+    double us = 0;   // when it came
+  };
+  std::array<Tick, kWindow> ring_{};  // the last ticks, oldest at ring_[next_ % kWindow] once full
+  size_t next_ = 0;          // ticks put in the ring so far
+  int64_t ticks_ = 0;        // the grid's ticks since the first (taken and lost)
+  uint64_t lost_ = 0;
+  double last_us_ = 0;       // when the last tick came
+  int64_t pending_lost_ = 0; // ticks the last tick's long gap stands for, if the next comes a period on
+  size_t count_ = 0;         // ticks in the ring
+  double intercept_ = 0, slope_ = 0;  // host us of tick n: intercept_ + slope_ * n
+  int64_t zero_tick_ = 0;    // the tick that is the song's beat 0 (after Start), or its position
+  bool running_ = false;
+  uint64_t starts_ = 0;
+  double start_beat_ = 0;
+  uint16_t position_ = 0;    // the last Song Position Pointer (sixteenths)
+};
+
+class MidiClockTimeline : public SongClock {
+ public:
+  // tempo: the song's tempo map; speed: the plan's tempo factor (song seconds / score seconds).
+  MidiClockTimeline(ClockQueue &queue, std::vector<TempoPoint> tempo, double speed = 1.0);
+  void poll() override;
+  uint64_t starts() const override { return follower_.starts(); }
+  bool running() const override { return follower_.running(); }
+  bool locked() const override { return follower_.locked(); }
+  double start_score_s() const override;
+  double host_us(double score_s) const override;
+  double score_at(double host_us) const override;
+  const ClockFollower &follower() const { return follower_; }
+
+ private:
+  ClockQueue &queue_;
+  Song tempo_song_;  // the tempo map alone (song_beat, song_seconds)
+  double speed_;
+  ClockFollower follower_;
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_PLAYER_MIDI_CLOCK_H
