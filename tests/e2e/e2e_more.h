@@ -167,6 +167,25 @@ inline const sc::trace::LevelChange *first_enable_change(const sc::trace::MotorT
   return nullptr;
 }
 
+// One note a motor sounded in a trace: its start and end (s, the trace's real time) and its
+// pitch (fractional MIDI note) from the mean interval of its STEP edges in real time.
+struct Sounded {
+  size_t motor;
+  double start_s, end_s, pitch;
+};
+
+// Every note of every motor of t, motor by motor (sc::trace::segment_notes' split).
+inline std::vector<Sounded> sounded_notes(const sc::trace::Trace &t) {
+  std::vector<Sounded> out;
+  for (size_t m = 0; m < t.motor.size(); ++m)
+    for (const auto &seg : sc::trace::segment_notes(t.motor[m].steps, t.f_cpu_hz)) {
+      const double start_s = t.real_seconds(seg.start_cycle), end_s = t.real_seconds(seg.end_cycle);
+      const double hz = static_cast<double>(seg.last_step - seg.first_step) / (end_s - start_s);
+      out.push_back({m, start_s, end_s, 69.0 + 12.0 * std::log2(hz / 440.0)});
+    }
+  return out;
+}
+
 }  // namespace e2e
 
 #endif  // STEPCHOIR_TESTS_E2E_MORE_H

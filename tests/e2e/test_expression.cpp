@@ -18,6 +18,7 @@
 #include "analysis.h"
 #include "board/child_process.h"
 #include "core/midi_event.h"
+#include "e2e_more.h"
 #include "e2e_util.h"
 #include "jack_rig.h"
 #include "trace.h"
@@ -218,31 +219,20 @@ TEST_CASE("live: velocity doubling: a loud note sounds in unison on two or three
   size_t busiest = 0;
   const tr::Trace t = finish(*rig.live, rig.vb, rig.trace_path, &busiest);
 
-  // Every note of every motor: its start and end (s) and its pitch (fractional MIDI note) from
-  // the mean interval of its STEP edges in real time.
-  struct Sounded {
-    size_t motor;
-    double start_s, end_s, pitch;
-  };
-  std::vector<Sounded> sounded;
-  for (size_t m = 0; m < t.motor.size(); ++m)
-    for (const auto &seg : tr::segment_notes(t.motor[m].steps, t.f_cpu_hz)) {
-      const double start_s = t.real_seconds(seg.start_cycle), end_s = t.real_seconds(seg.end_cycle);
-      const double hz = static_cast<double>(seg.last_step - seg.first_step) / (end_s - start_s);
-      sounded.push_back({m, start_s, end_s, 69.0 + 12.0 * std::log2(hz / 440.0)});
-      UNSCOPED_INFO("motor " << m << ": " << sounded.back().pitch << " from " << start_s << " s to " << end_s << " s");
-    }
+  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes(t);
+  for (const e2e::Sounded &n : sounded)
+    UNSCOPED_INFO("motor " << n.motor << ": " << n.pitch << " from " << n.start_s << " s to " << n.end_s << " s");
   size_t expected_notes = 0;
   for (const Strike &s : strikes) {
     expected_notes += s.motors;
-    std::vector<Sounded> on;
-    for (const Sounded &n : sounded)
+    std::vector<e2e::Sounded> on;
+    for (const e2e::Sounded &n : sounded)
       if (std::fabs(n.pitch - s.note) < 0.5) on.push_back(n);
     INFO("note " << int(s.note) << " at velocity " << int(s.velocity));
     REQUIRE(on.size() == s.motors);  // one segment each, on as many motors
     double worst_cents = 0, first_start = 1e9, last_start = 0, first_end = 1e9, last_end = 0;
     std::string motors;
-    for (const Sounded &n : on) {
+    for (const e2e::Sounded &n : on) {
       const double cents = (n.pitch - s.note) * 100.0;
       if (std::fabs(cents) > std::fabs(worst_cents)) worst_cents = cents;
       first_start = std::min(first_start, n.start_s), last_start = std::max(last_start, n.start_s);

@@ -19,110 +19,15 @@
 #include "live/midi_in.h"
 #include "live/rt_guard.h"
 #include "live/session.h"
+#include "live_fakes.h"
 
 using namespace stepchoir;
+using namespace stepchoir::live_test;
 
 namespace {
 
 // A velocity below [velocity]'s default double_at (live/velocity.h): one motor a note.
 constexpr uint8_t kSoft = 64;
-
-// A Link that keeps every byte written; reads time out with nothing. While closed, writes
-// wait: a link slower than anything the test sends. With `direct`, try_write takes a frame at
-// once while open and refuses it while closed (like a port whose OS buffer is full); without,
-// it always refuses (a link that cannot tell).
-class FakeLink : public Link {
- public:
-  explicit FakeLink(bool direct = false) : direct_(direct) {}
-  bool try_write(const uint8_t *data, size_t len) override {
-    const bool rt = in_rt_scope();
-    RtExempt exempt;  // the recording allocates; a real link's write does not
-    std::lock_guard<std::mutex> lock(mu_);
-    count_scope(rt);
-    if (!direct_ || !open_) return false;
-    bytes_.insert(bytes_.end(), data, data + len);
-    return true;
-  }
-  bool write(const uint8_t *data, size_t len) override {
-    const bool rt = in_rt_scope();
-    RtExempt exempt;  // the recording allocates; a real link's write does not
-    std::unique_lock<std::mutex> lock(mu_);
-    count_scope(rt);
-    opened_.wait(lock, [this] { return open_; });
-    bytes_.insert(bytes_.end(), data, data + len);
-    return true;
-  }
-  // Called from: the test. Holds writes back (close) or lets them through (open).
-  void set_open(bool open) {
-    std::lock_guard<std::mutex> lock(mu_);
-    open_ = open;
-    opened_.notify_all();
-  }
-  long read(uint8_t *, size_t, int timeout_ms) override {
-    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(timeout_ms, 5)));
-    return 0;
-  }
-  std::string name() const override { return "fake"; }
-  // Writes from threads other than the one that made the link (the session's engine and
-  // writer), inside and outside a real-time scope.
-  std::pair<int, int> thread_writes() {
-    std::lock_guard<std::mutex> lock(mu_);
-    return {rt_writes_, other_writes_};
-  }
-  // Every frame written so far, decoded (payloads).
-  std::vector<std::vector<uint8_t>> frames() {
-    std::lock_guard<std::mutex> lock(mu_);
-    std::vector<std::vector<uint8_t>> out;
-    sc::FrameDecoder dec;
-    for (uint8_t b : bytes_)
-      if (dec.push(b) == sc::kFrameOk) out.emplace_back(dec.payload(), dec.payload() + dec.payload_len());
-    return out;
-  }
-
- private:
-  bool direct_;
-  bool open_ = true;
-  std::condition_variable opened_;
-  std::mutex mu_;
-  std::vector<uint8_t> bytes_;
-  const std::thread::id maker_ = std::this_thread::get_id();
-  int rt_writes_ = 0, other_writes_ = 0;
-  void count_scope(bool rt) {  // mu_ held
-    if (std::this_thread::get_id() != maker_) ++(rt ? rt_writes_ : other_writes_);
-  }
-};
-
-// The set-period entries among payloads, in wire order.
-std::vector<sc::PeriodEntry> entries_of(const std::vector<std::vector<uint8_t>> &frames) {
-  std::vector<sc::PeriodEntry> out;
-  for (const auto &f : frames) {
-    if (!(f[0] & sc::kSetPeriodFlag)) continue;
-    for (size_t i = 0; i + sc::kSetPeriodBytes <= f.size(); i += sc::kSetPeriodBytes) {
-      sc::PeriodEntry e;
-      REQUIRE(sc::get_entry(&f[i], &e));
-      out.push_back(e);
-    }
-  }
-  return out;
-}
-
-// Periods motor m got, in order.
-std::vector<uint32_t> periods_of(const std::vector<sc::PeriodEntry> &entries, uint8_t m) {
-  std::vector<uint32_t> out;
-  for (const auto &e : entries)
-    if (e.motor == m) out.push_back(e.period_q8);
-  return out;
-}
-
-// Waits up to 10 s for cond; true when it held.
-template <class F>
-bool eventually(F cond) {
-  for (int i = 0; i < 1000; ++i) {
-    if (cond()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return cond();
-}
 
 const uint32_t kF = 16000000;
 const int kNoRefresh = 3600 * 1000;  // ms: no state refresh while a test checks exact frames

@@ -175,6 +175,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   alloc.a4_hz = cfg.a4_hz;
   alloc.vibrato = cfg.vibrato;
   alloc.velocity = cfg.velocity;
+  alloc.glide = cfg.glide;
   for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b) {
     const BoardSettings *settings = board_settings(rig, ports[b], b);
     for (size_t m = 0; settings && m < settings->motors.size() && m < pool[b].motor_count; ++m) {
@@ -184,8 +185,10 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       alloc.mono_channel[first + m] = settings->motors[m].mono_channel;
     }
   }
+  std::vector<LivePreset> presets = live_presets(cfg, alloc);  // every motor index checked against the pool
   const std::string locked = lock_memory();  // before the real-time threads start
   LiveSession session(pool, alloc);
+  session.set_presets(std::move(presets));
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
   const char *policy_names[] = {"poly", "channel", "mono"};
@@ -200,6 +203,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::fflush(stdout);
 
   uint64_t errors_logged = 0, dropped_logged = 0;
+  int preset_shown = -1;
   const bool tty = ::isatty(1);
   auto last_print = std::chrono::steady_clock::now();
   for (unsigned tick = 1; !stop.load(); ++tick) {
@@ -220,6 +224,12 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (midi && midi->dropped() != dropped_logged) {
       dropped_logged = midi->dropped();
       log->warn("{} MIDI events dropped: the engine fell behind", dropped_logged);
+    }
+    if (session.preset() != preset_shown) {
+      preset_shown = session.preset();
+      const LivePreset &p = session.presets()[static_cast<size_t>(preset_shown)];
+      std::printf("%slive: preset %d %s\n", tty && !o.quiet ? "\n" : "", p.program + 1, p.name.c_str());
+      std::fflush(stdout);
     }
     if (o.quiet) continue;
     const auto now = std::chrono::steady_clock::now();

@@ -3,68 +3,16 @@
 
 #include <toml++/toml.h>
 
-#include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 
+#include "config/toml_read.h"
+
 namespace stepchoir {
 namespace {
 
-// Called from: every check below. "SOURCE:LINE:COLUMN: message" for a node.
-[[noreturn]] void fail(const std::string &source, const toml::node &node, const std::string &message) {
-  const auto &where = node.source().begin;
-  throw std::runtime_error(source + ":" + std::to_string(where.line) + ":" + std::to_string(where.column) + ": " +
-                           message);
-}
-
-// Called from: the table readers. Refuses keys the table does not know (a typo must not be
-// silently ignored).
-void known_keys(const std::string &source, const toml::table &table, std::initializer_list<const char *> keys,
-                const std::string &where) {
-  for (const auto &[key, node] : table) {
-    bool known = false;
-    for (const char *k : keys) known = known || key.str() == k;
-    if (!known) fail(source, node, "unknown key '" + std::string(key.str()) + "' in " + where);
-  }
-}
-
-// Called from: the table readers. An integer key in [lo, hi], or fallback when absent.
-int64_t get_int(const std::string &source, const toml::table &t, const char *key, int64_t lo, int64_t hi,
-                int64_t fallback) {
-  const toml::node *n = t.get(key);
-  if (!n) return fallback;
-  const auto v = n->value<int64_t>();
-  if (!n->is_integer() || !v) fail(source, *n, std::string(key) + ": expected an integer");
-  if (*v < lo || *v > hi)
-    fail(source, *n, std::string(key) + " = " + std::to_string(*v) + ": must be " + std::to_string(lo) + " to " +
-                         std::to_string(hi));
-  return *v;
-}
-
-// Called from: the table readers. A number key (integer or float), finite, in [lo, hi].
-double get_number(const std::string &source, const toml::table &t, const char *key, double lo, double hi,
-                  double fallback) {
-  const toml::node *n = t.get(key);
-  if (!n) return fallback;
-  const auto v = n->value<double>();
-  if (!v || !std::isfinite(*v)) fail(source, *n, std::string(key) + ": expected a number");
-  if (*v < lo || *v > hi) {
-    char range[64];
-    std::snprintf(range, sizeof range, "%g to %g", lo, hi);
-    fail(source, *n, std::string(key) + ": must be " + range);
-  }
-  return *v;
-}
-
-// Called from: the table readers. A string key, or fallback when absent.
-std::string get_string(const std::string &source, const toml::table &t, const char *key, const std::string &fallback) {
-  const toml::node *n = t.get(key);
-  if (!n) return fallback;
-  if (!n->is_string()) fail(source, *n, std::string(key) + ": expected a string");
-  return *n->value<std::string>();
-}
+using namespace toml_read;
 
 // Called from: read_motor. The driver power keys of one [[boards.motors]] entry (the board
 // checks the pins against its own: a pin it lacks or uses is refused when live configures it).
@@ -124,10 +72,7 @@ MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_
   const int64_t micro = get_int(source, t, "microsteps", 1, 32, m.hardware.microsteps);
   if (micro & (micro - 1)) fail(source, *t.get("microsteps"), "microsteps must be 1, 2, 4, 8, 16 or 32");
   m.hardware.microsteps = static_cast<uint8_t>(micro);
-  if (const toml::node *n = t.get("endstop_active_high")) {
-    if (!n->is_boolean()) fail(source, *n, "endstop_active_high: expected true or false");
-    m.hardware.endstop_active_high = *n->value<bool>() ? 1 : 0;
-  }
+  m.hardware.endstop_active_high = get_bool(source, t, "endstop_active_high", false) ? 1 : 0;
   m.hardware.travel_steps = static_cast<uint32_t>(get_int(source, t, "travel_steps", 0, sc::kMaxTravelSteps,
                                                           m.hardware.travel_steps));
   m.hardware.pulse_us = static_cast<uint8_t>(get_int(source, t, "pulse_us", 2, 10, m.hardware.pulse_us));
@@ -187,22 +132,6 @@ Policy parse_policy(const std::string &s) {
   throw std::invalid_argument("policy '" + s + "': expected poly, channel or mono");
 }
 
-namespace {
-
-// Called from: parse_config. [velocity]: the velocities (1-127, 0 = off) from which a poly note
-// takes a second and a third motor in unison (live/velocity.h).
-VelocityConfig read_velocity(const std::string &source, const toml::node &n) {
-  const toml::table *t = n.as_table();
-  if (!t) fail(source, n, "[velocity] must be a table");
-  known_keys(source, *t, {"double_at", "triple_at"}, "[velocity]");
-  VelocityConfig v;
-  v.double_at = static_cast<uint8_t>(get_int(source, *t, "double_at", 0, 127, v.double_at));
-  v.triple_at = static_cast<uint8_t>(get_int(source, *t, "triple_at", 0, 127, v.triple_at));
-  return v;
-}
-
-}  // namespace
-
 LiveConfig parse_config(const std::string &text, const std::string &source) {
   toml::table root;
   try {
@@ -211,14 +140,12 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     throw std::runtime_error(source + ":" + std::to_string(e.source().begin.line) + ":" +
                              std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
-  known_keys(source, root, {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "boards"},
+  known_keys(source, root,
+             {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "glide", "boards", "presets"},
              "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
-  if (const toml::node *n = root.get("home_on_start")) {
-    if (!n->is_boolean()) fail(source, *n, "home_on_start: expected true or false");
-    c.home_on_start = *n->value<bool>();
-  }
+  c.home_on_start = get_bool(source, root, "home_on_start", false);
   if (const toml::node *n = root.get("midi")) {
     const toml::table *t = n->as_table();
     if (!t) fail(source, *n, "[midi] must be a table");
@@ -231,34 +158,13 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     const toml::table *t = n->as_table();
     if (!t) fail(source, *n, "[allocation] must be a table");
     known_keys(source, *t, {"policy", "priority", "sing_percussion"}, "[allocation]");
-    try {
-      c.policy = parse_policy(get_string(source, *t, "policy", "poly"));
-    } catch (const std::invalid_argument &e) {
-      fail(source, *t->get("policy"), e.what());
-    }
-    const std::string priority = get_string(source, *t, "priority", "oldest");
-    if (priority == "oldest") c.priority = Priority::kOldest;
-    else if (priority == "lowest") c.priority = Priority::kLowest;
-    else if (priority == "highest") c.priority = Priority::kHighest;
-    else fail(source, *t->get("priority"), "priority '" + priority + "': expected oldest, lowest or highest");
-    if (const toml::node *sp = t->get("sing_percussion")) {
-      if (!sp->is_boolean()) fail(source, *sp, "sing_percussion: expected true or false");
-      c.sing_percussion = sp->value_or(false);
-    }
+    c.policy = get_policy(source, *t, c.policy);
+    c.priority = get_priority(source, *t, c.priority);
+    c.sing_percussion = get_bool(source, *t, "sing_percussion", c.sing_percussion);
   }
-  if (const toml::node *n = root.get("vibrato")) {
-    const toml::table *t = n->as_table();
-    if (!t) fail(source, *n, "[vibrato] must be a table");
-    known_keys(source, *t, {"rate_hz", "depth_cents", "fade_ms", "aftertouch"}, "[vibrato]");
-    c.vibrato.rate_hz = get_number(source, *t, "rate_hz", 0.1, 20.0, c.vibrato.rate_hz);
-    c.vibrato.depth_cents = get_number(source, *t, "depth_cents", 0.0, 200.0, c.vibrato.depth_cents);
-    c.vibrato.fade_ms = get_number(source, *t, "fade_ms", 0.0, 5000.0, c.vibrato.fade_ms);
-    if (const toml::node *a = t->get("aftertouch")) {
-      if (!a->is_boolean()) fail(source, *a, "aftertouch: expected true or false");
-      c.vibrato.aftertouch = a->value_or(false);
-    }
-  }
-  if (const toml::node *n = root.get("velocity")) c.velocity = read_velocity(source, *n);
+  if (const toml::node *n = root.get("vibrato")) c.vibrato = read_vibrato(source, *n, c.vibrato, "[vibrato]");
+  if (const toml::node *n = root.get("velocity")) c.velocity = read_velocity(source, *n, c.velocity, "[velocity]");
+  if (const toml::node *n = root.get("glide")) c.glide = read_glide(source, *n, c.glide, "[glide]");
   if (const toml::node *n = root.get("boards")) {
     const toml::array *boards = n->as_array();
     if (!boards) fail(source, *n, "boards: expected [[boards]] tables");
@@ -281,6 +187,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
       c.boards.push_back(std::move(bs));
     }
   }
+  if (const toml::node *n = root.get("presets")) c.presets = read_presets(source, *n, c);
   return c;
 }
 
@@ -338,6 +245,40 @@ aftertouch = false
 # with jumpers, so velocity cannot choose full step or microsteps: doubling is what it does.)
 double_at = 100
 triple_at = 120
+
+[glide]
+# Glide (portamento) every channel starts with: its time in ms (0-2032; CC5 sets it in 16 ms steps)
+# and on = true to glide without CC65 (CC65 still turns it on and off).
+time_ms = 0
+on = false
+
+# Presets: one [[presets]] table each, switched by MIDI program change on any channel; the first
+# is active at start. program: 1-128 as the keyboard shows it; name: printed when it becomes
+# active; bank (0-16383, CC0 * 128 + CC32): only that bank's program change selects it (default:
+# any bank). A preset may set policy, priority, transpose (semitones, every motor, -48..48),
+# bend_range (semitones, 0-24), mute_motors (motor indexes: silent in this preset), and tables
+# [presets.vibrato], [presets.velocity], [presets.glide] as above; what it leaves out keeps the
+# value above. Zones (policy poly): [[presets.zones]] with lowest / highest key (MIDI notes),
+# channel (1-16, absent: any) and motors (indexes, motor 0 is the first board's first): a note
+# plays only on the motors of the zones it falls in, once in each (a layer); with zones, a note
+# in none is not played. A program change silences every note; held keys sound again only when
+# struck again. For example, a plain preset on program 1 and a split on program 2:
+#   [[presets]]
+#   program = 1
+#   name = "plain"
+#
+#   [[presets]]
+#   program = 2
+#   name = "split"
+#   transpose = 12
+#   [presets.glide]
+#   time_ms = 200
+#   [[presets.zones]]
+#   highest = 59
+#   motors = [0, 1]
+#   [[presets.zones]]
+#   lowest = 60
+#   motors = [2, 3]
 
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
 # uses the first board's port; with no board and no --port, live, play and jam start the virtual

@@ -12,6 +12,7 @@
 
 #include "board/motion.h"
 #include "live/allocator.h"
+#include "live/presets.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
@@ -31,6 +32,32 @@ struct BoardSettings {
   std::vector<MotorSettings> motors;  // in motor order; motors not listed keep their board's defaults
 };
 
+// One [[presets.zones]] entry: the keys and channel whose notes the listed motors play.
+struct ZoneSettings {
+  uint8_t lowest = 0, highest = 127;  // keys, MIDI notes, inclusive
+  int8_t channel = -1;                // 0-15 (the file says 1-16), -1: any
+  std::vector<uint8_t> motors;        // pool motor indexes
+  std::string where;                  // "FILE:LINE:COLUMN" of its motors, for a motor the pool lacks
+};
+
+// One [[presets]] table. What it does not set keeps the file's top-level value.
+struct PresetSettings {
+  uint8_t program = 1;            // 1-128, as keyboards show it (the wire's 0-127 plus 1)
+  int32_t bank = -1;              // 0-16383 (CC0 * 128 + CC32), -1: any bank
+  std::string name;
+  std::string where;              // "FILE:LINE:COLUMN" of its table
+  std::optional<Policy> policy;   // absent: the top level's (or --policy's)
+  Priority priority = Priority::kOldest;
+  int8_t transpose = 0;           // semitones for every motor, -48..48
+  uint8_t bend_range = kDefaultBendSemitones;  // semitones, the initial RPN 0 range
+  VibratoConfig vibrato;
+  VelocityConfig velocity;
+  GlideConfig glide;
+  std::vector<uint8_t> mute_motors;  // pool motor indexes silent in this preset
+  std::string mute_where;            // "FILE:LINE:COLUMN" of mute_motors
+  std::vector<ZoneSettings> zones;
+};
+
 struct LiveConfig {
   std::string midi_input = "virtual";
   std::string midi_api = "alsa";
@@ -41,7 +68,9 @@ struct LiveConfig {
   bool home_on_start = false;     // live, play and jam home the motors with switches first
   VibratoConfig vibrato;          // [vibrato]: the mod wheel's
   VelocityConfig velocity;        // [velocity]: from which velocity a poly note takes a second and third motor
+  GlideConfig glide;              // [glide]: the glide every channel starts with
   std::vector<BoardSettings> boards;
+  std::vector<PresetSettings> presets;  // [[presets]], in file order: the first is active at start
 };
 
 // Hardware defaults for one motor: A4988 at 16 microsteps, switches active low, 3200 steps of
@@ -63,6 +92,16 @@ LiveConfig parse_config(const std::string &text, const std::string &source);
 
 // The commented default configuration. Called from: `stepchoir config --print-default`.
 const char *default_config_text();
+
+// The allocator configuration of preset p over `base` (the top level's, with the pool's motors):
+// what p sets replaces base's. Throws std::runtime_error "FILE:LINE:COLUMN: ..." for a motor
+// index the pool lacks or zones under a policy other than poly.
+// Called from: live_presets; tests.
+AllocatorConfig preset_config(const AllocatorConfig &base, const PresetSettings &p);
+
+// Every preset of the file as the engine holds them (LiveSession::set_presets), in file order.
+// Called from: `stepchoir live`, before the session starts. Throws as preset_config.
+std::vector<LivePreset> live_presets(const LiveConfig &config, const AllocatorConfig &base);
 
 // "poly" / "channel" / "mono"; throws std::invalid_argument naming the value otherwise.
 Policy parse_policy(const std::string &name);

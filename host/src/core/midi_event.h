@@ -35,6 +35,7 @@ constexpr uint8_t kCcBankSelectMsb = 0;
 constexpr uint8_t kCcModWheel = 1;
 constexpr uint8_t kCcPortamentoTime = 5;
 constexpr uint8_t kCcDataEntryMsb = 6;
+constexpr uint8_t kCcBankSelectLsb = 32;
 constexpr uint8_t kCcDataEntryLsb = 38;
 constexpr uint8_t kCcSustain = 64;
 constexpr uint8_t kCcPortamento = 65;

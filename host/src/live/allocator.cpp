@@ -25,6 +25,20 @@ const char *Allocator::validate(const AllocatorConfig &c) noexcept {
     if (!std::isfinite(mc.tuning_cents)) return "a motor's tuning is not a number";
     if (c.mono_channel[m] < -1 || c.mono_channel[m] > 15) return "mono_channel must be -1 to 15";
   }
+  const uint32_t pool = c.motor_count >= 32 ? 0xFFFFFFFFu : (1u << c.motor_count) - 1;
+  if (c.transpose < -48 || c.transpose > 48) return "transpose must be -48 to 48";
+  if (c.bend_range > 127) return "bend_range must be 0 to 127";
+  if (c.glide.time_ms > kGlideMaxMs) return "the glide time must be 0 to 2032 ms";
+  if (c.muted_motors & ~pool) return "a muted motor is not in the pool";
+  if (c.zone_count > AllocatorConfig::kMaxZones) return "at most 16 zones";
+  if (c.zone_count > 0 && c.policy != Policy::kPoly) return "zones need policy poly";
+  for (size_t z = 0; z < c.zone_count; ++z) {
+    const Zone &zone = c.zones[z];
+    if (zone.highest > 127 || zone.lowest > zone.highest) return "a zone's keys are not lowest <= highest <= 127";
+    if (zone.channel < -1 || zone.channel > 15) return "a zone's channel must be -1 to 15";
+    if (zone.motors == 0) return "a zone has no motor";
+    if (zone.motors & ~pool) return "a zone's motor is not in the pool";
+  }
   return nullptr;
 }
 
@@ -44,17 +58,23 @@ bool Allocator::configure(const AllocatorConfig &config) noexcept {
   return true;
 }
 
-// Forgets every note and resets every channel; derives each motor's owning channel.
+// Forgets every note and resets every channel to the configuration's bend range and glide;
+// derives each motor's owning channel (none for a muted motor).
 void Allocator::reset_state() noexcept {
   voices_.fill(Voice{});
   glide_.fill(Glide{});
   last_pitch_.fill(0.0);
   silent_us_.fill(0);
   channels_.fill(Channel{});
+  for (Channel &c : channels_) {
+    c.range_semitones = config_.bend_range;
+    c.glide = config_.glide.on;
+    c.glide_us = config_.glide.time_ms * uint32_t{1000};
+  }
   channels_[kGmDrumChannel].percussion = true;
   for (size_t m = 0; m < kMaxMotors; ++m) {
     owner_[m] = kNone;
-    if (m >= config_.motor_count) continue;
+    if (m >= config_.motor_count || (config_.muted_motors >> m & 1)) continue;
     if (config_.policy == Policy::kChannel && m < 16) owner_[m] = static_cast<uint8_t>(m);
     if (config_.policy == Policy::kMono && config_.mono_channel[m] >= 0)
       owner_[m] = static_cast<uint8_t>(config_.mono_channel[m]);
@@ -146,12 +166,12 @@ double Allocator::bend_range_semitones(uint8_t ch) const noexcept {
 bool Allocator::sustain(uint8_t ch) const noexcept { return ch <= 15 && channels_[ch].pedal; }
 
 bool Allocator::resolve(size_t m, uint8_t note, uint8_t *played, int *octaves) const noexcept {
-  return resolve_note(config_.motors[m], note, played, octaves);
+  return resolve_note(config_.motors[m], note, played, octaves, config_.transpose);
 }
 
-bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves) noexcept {
+bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves, int transpose) noexcept {
   const int lo = mc.lowest_note, hi = mc.highest_note;
-  const int want = note + mc.transpose;
+  const int want = note + mc.transpose + transpose;
   // Nearest octave inside the range: how far the note must move to get in, if it is out.
   int base = want;
   while (base < lo) base += 12;

@@ -44,6 +44,17 @@
 // range; in kPoly a motor that plays the note unfolded is preferred to one that must fold it.
 // A motor that cannot play a note at all (every octave of it muted) does not take it.
 //
+// Zones (AllocatorConfig::zones, kPoly only): a zone maps a key range and a MIDI channel (or any)
+// to a set of motors. With zones, a note plays only on the motors of the zones its key and
+// channel fall in: once in each such zone (a layer: a voice per zone, each free, stolen or doubled
+// among its zone's motors alone); a note no zone covers is not played. Without zones every motor
+// takes any note. Zones match the key as received, before any transpose.
+//
+// A preset (AllocatorConfig as live/presets.h switches them) may also set a transpose for every
+// motor (added to each motor's own), mute whole motors (they play nothing in any policy), the bend
+// range every channel starts with, and the glide every channel starts with (live/glide.h
+// GlideConfig); configure() applies a new one between notes.
+//
 // Percussion: General MIDI channel 10, and any channel whose bank select (CC0 120 or 127, then a
 // program change) chose a drum kit, plays drum hits, not pitches. Their notes are ignored
 // unless AllocatorConfig::sing_percussion is set (CC0 121 and a program change make a channel
@@ -94,11 +105,27 @@ struct MotorConfig {
 
 // The note motor config mc plays for a key (transpose, octave folding into its range, mutes)
 // and how many octaves it had to move; false when every octave of it inside the range is
-// muted. Called from: the Allocator (live) and the song planner. Pure.
-bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves) noexcept;
+// muted. transpose: semitones added besides the motor's own (a preset's). Called from: the
+// Allocator (live) and the song planner. Pure.
+bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves, int transpose = 0) noexcept;
+
+// The bend range every channel starts with unless a configuration says otherwise, semitones each way.
+constexpr uint8_t kDefaultBendSemitones = 2;
+
+// kPoly: a split or layer zone: the keys (as received) and channel whose notes the motors play.
+struct Zone {
+  uint8_t lowest = 0, highest = 127;  // keys, MIDI notes, inclusive
+  int8_t channel = -1;                // MIDI channel 0-15, or -1: any
+  uint32_t motors = 0;                // bit m: motor m may play the zone's notes
+
+  constexpr bool covers(uint8_t ch, uint8_t key) const noexcept {
+    return key >= lowest && key <= highest && (channel < 0 || channel == ch);
+  }
+};
 
 struct AllocatorConfig {
-  static constexpr size_t kMaxMotors = 32;  // motors one Allocator can drive
+  static constexpr size_t kMaxMotors = 32;  // motors one Allocator can drive (a bit each in a uint32_t)
+  static constexpr size_t kMaxZones = 16;   // zones one configuration can hold
 
   uint8_t motor_count = 1;  // 1 .. kMaxMotors
   Policy policy = Policy::kPoly;
@@ -110,6 +137,13 @@ struct AllocatorConfig {
   std::array<MotorConfig, kMaxMotors> motors{};
   // kMono only: the channel (0-15) whose group motor m belongs to, or -1 for none.
   std::array<int8_t, kMaxMotors> mono_channel = filled(-1);
+  // What a preset sets besides the above (live/presets.h):
+  int8_t transpose = 0;                        // semitones added to every key besides each motor's own, -48..48
+  uint8_t bend_range = kDefaultBendSemitones;  // semitones each way every channel starts with (RPN 0 changes it)
+  GlideConfig glide;                           // the glide every channel starts with
+  uint32_t muted_motors = 0;                   // bit m: motor m plays nothing
+  uint8_t zone_count = 0;                      // kPoly: zones[0 .. zone_count-1] apply; 0: any motor, any note
+  std::array<Zone, kMaxZones> zones{};
 
  private:
   static constexpr std::array<int8_t, kMaxMotors> filled(int8_t v) {
@@ -135,21 +169,23 @@ struct MotorState {
 class Allocator {
  public:
   static constexpr size_t kMaxMotors = AllocatorConfig::kMaxMotors;
-  static constexpr uint8_t kDefaultBendRange = 2;  // semitones each way
+  static constexpr uint8_t kDefaultBendRange = kDefaultBendSemitones;
 
   // Why a configuration is unusable, or nullptr when it is fine.
   // Called from: any thread. Does not allocate or block.
   static const char *validate(const AllocatorConfig &config) noexcept;
 
-  // Starts with every motor silent, pedals up, bends centred, bend ranges at +/-2 semitones.
+  // Starts with every motor silent, pedals up, bends centred, bend ranges at config.bend_range.
   // Throws std::invalid_argument (with validate()'s reason) for an unusable configuration.
   // Called from: setup code, before the engine thread runs. Does not allocate.
   explicit Allocator(const AllocatorConfig &config);
 
-  // Replaces the configuration: forgets every note and resets every channel as construction
-  // does; the next flush() (or handle()) silences the motors that were sounding. Returns false
-  // and changes nothing when validate() rejects the configuration.
-  // Called from: the engine thread. Does not allocate or block.
+  // Replaces the configuration (a preset switch): forgets every note, held or sustained, and
+  // resets every channel as construction does; the next flush() (or handle()) writes a silent
+  // entry for every motor that was sounding, so nothing is left stuck. Returns false and changes
+  // nothing when validate() rejects the configuration.
+  // Called from: the engine thread (LiveSession, at a program change), setup code. Does not
+  // allocate or block; copies the configuration (about 2 KB).
   bool configure(const AllocatorConfig &config) noexcept;
 
   // Applies one MIDI event and writes the motors whose period changed because of it (and any
@@ -204,6 +240,7 @@ class Allocator {
     uint64_t started = 0;  // note-on sequence number (kPoly stealing)
     uint64_t onset_us = 0;  // when the motor began this note (its vibrato's phase)
     bool doubler = false;   // kPoly: an extra motor of a loud note, in unison with its own motor
+    uint8_t layer = kNone;  // kPoly with zones: the zone the voice plays the key for, else kNone
   };
 
   struct Channel {
@@ -215,7 +252,7 @@ class Allocator {
     bool percussion = false;               // a drum kit: its notes are hits, not pitches
     uint8_t mod = 0, pressure = 0;         // mod wheel (CC1) and channel aftertouch
     bool glide = false;                    // portamento on (CC65)
-    uint8_t glide_time = 0;                // CC5: kGlideUsPerStep a step
+    uint32_t glide_us = 0;                 // glide time (CC5: kGlideUsPerStep a step)
     // kMono/kChannel note memory: keys in press order, most recent last, no duplicates;
     // key_up marks keys released while the pedal was down (they still count).
     std::array<uint8_t, 128> keys{};
@@ -232,15 +269,17 @@ class Allocator {
   void all_notes_off(uint8_t ch) noexcept;
   void all_sound_off(uint8_t ch) noexcept;
   void poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept;  // extra: doublers wanted
-  size_t poly_victim(uint8_t note) const noexcept;  // kNone when the new note must yield
+  // One voice of a kPoly note: for zone `layer` (kNone: no zones) on the motors in `allowed`.
+  void poly_place(uint8_t ch, uint8_t note, uint8_t extra, uint8_t layer, uint32_t allowed) noexcept;
+  size_t poly_victim(uint8_t note, uint32_t allowed) const noexcept;  // kNone when the new note must yield
   // kPoly velocity doubling. Motors m and p sound the same key of the same channel.
   bool same_key(size_t m, size_t p) const noexcept;
   size_t key_motors(size_t p) const noexcept;  // motors sounding p's key, p among them
   // Gives the note on motor p (its own motor) `want` doublers: releases surplus ones, takes
   // free motors in unison for missing ones while there are any.
-  void set_doublers(size_t p, uint8_t want) noexcept;
-  // No motor free: a motor in unison with another that can play `note`, kNone when none.
-  size_t spare_motor(uint8_t note) const noexcept;
+  void set_doublers(size_t p, uint8_t want, uint32_t allowed) noexcept;
+  // No motor free: a motor in `allowed` in unison with another that can play `note`, kNone when none.
+  size_t spare_motor(uint8_t note, uint32_t allowed) const noexcept;
   void hand_over(size_t m) noexcept;  // motor m is taken: a doubler of its note becomes its own
   void mono_push(uint8_t ch, uint8_t note) noexcept;
   void mono_remove(uint8_t ch, uint8_t note) noexcept;

@@ -12,7 +12,7 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
       c.mod = value;
       retune_channel(ch);
       break;
-    case kCcPortamentoTime: c.glide_time = value; break;
+    case kCcPortamentoTime: c.glide_us = static_cast<uint32_t>(value * kGlideUsPerStep); break;
     case kCcPortamento: c.glide = value >= 64; break;
     case kCcBankSelectMsb: c.bank = value; break;
     case kCcRpnMsb: c.rpn_msb = value; break;
@@ -32,11 +32,11 @@ void Allocator::control_change(uint8_t ch, uint8_t cc, uint8_t value) noexcept {
     case kCcResetAllControllers:
       set_pedal(ch, false);
       c.bend = kBendCentre;
-      c.range_semitones = kDefaultBendRange;
+      c.range_semitones = config_.bend_range;
       c.range_cents = 0;
       c.rpn_msb = c.rpn_lsb = 127;
       c.mod = c.pressure = 0;
-      c.glide = false;
+      c.glide = config_.glide.on;
       retune_channel(ch);
       break;
     case kCcAllNotesOff:
@@ -123,11 +123,11 @@ size_t Allocator::tick(uint64_t now_us, sc::PeriodEntry *out, size_t max_out) no
 void Allocator::start_glide(size_t m, uint8_t ch, bool always) noexcept {
   const Channel &c = channels_[ch];
   const bool recent = always || (silent_us_[m] == 0 ? last_pitch_[m] > 0 : now_us_ - silent_us_[m] <= kGlideAfterSilenceUs);
-  if (!c.glide || c.glide_time == 0 || !recent || last_pitch_[m] <= 0) {
+  if (!c.glide || c.glide_us == 0 || !recent || last_pitch_[m] <= 0) {
     glide_[m] = Glide{};
     return;
   }
-  glide_[m] = Glide{last_pitch_[m], now_us_, c.glide_time * kGlideUsPerStep};
+  glide_[m] = Glide{last_pitch_[m], now_us_, c.glide_us};
 }
 
 }  // namespace stepchoir

@@ -1,4 +1,4 @@
-// allocator_notes.cpp: where a note goes: kPoly's free motor, a doubler's or a stolen one, and a
+// allocator_notes.cpp: where a note goes: kPoly's zones (each a voice of the note), a free motor, a doubler's or a stolen one, and a
 // loud note's extra motors in unison; kMono/kChannel's note memory that points a group at its
 // channel's newest key (see allocator.h for the rules).
 #include "live/allocator.h"
@@ -39,12 +39,23 @@ void Allocator::note_off(uint8_t ch, uint8_t note) noexcept {
 }
 
 void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
+  const uint32_t unmuted = ~config_.muted_motors;
+  if (config_.zone_count == 0) {
+    poly_place(ch, note, extra, kNone, unmuted);
+    return;
+  }
+  for (size_t z = 0; z < config_.zone_count; ++z)  // a voice in every zone that covers the key: layers
+    if (config_.zones[z].covers(ch, note)) poly_place(ch, note, extra, static_cast<uint8_t>(z), config_.zones[z].motors & unmuted);
+}
+
+void Allocator::poly_place(uint8_t ch, uint8_t note, uint8_t extra, uint8_t layer, uint32_t allowed) noexcept {
   const size_t n = config_.motor_count;
   // Struck again while it still sounds (held, or held by the pedal): the same motor carries
   // on, so repeating a key never takes a second motor for its own; its doublers follow the
   // new velocity.
   for (size_t m = 0; m < n; ++m) {
-    if (!voices_[m].active || voices_[m].doubler || voices_[m].channel != ch || voices_[m].note != note) continue;
+    const Voice &own = voices_[m];
+    if (!own.active || own.doubler || own.channel != ch || own.note != note || own.layer != layer) continue;
     ++sequence_;
     for (size_t d = 0; d < n; ++d) {
       Voice &v = voices_[d];
@@ -53,7 +64,7 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
       v.sustained = false;
       v.started = sequence_;
     }
-    set_doublers(m, extra);
+    set_doublers(m, extra, allowed);
     return;
   }
   // A free motor that can play it, fewest octaves of folding first, then lowest index; a
@@ -65,7 +76,7 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
   for (size_t m = 0; m < n; ++m) {
     uint8_t played;
     int octaves;
-    if (voices_[m].active || !resolve(m, note, &played, &octaves)) continue;
+    if (!(allowed >> m & 1) || voices_[m].active || !resolve(m, note, &played, &octaves)) continue;
     const uint64_t silent = channels_[ch].glide && silent_us_[m] && now_us_ - silent_us_[m] <= kGlideAfterSilenceUs
                                 ? silent_us_[m]
                                 : 0;
@@ -77,26 +88,26 @@ void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
     }
   }
   if (best == kNone) {
-    best = spare_motor(note);  // a motor in unison with another: no note stops
-    if (best == kNone) best = poly_victim(note);
+    best = spare_motor(note, allowed);  // a motor in unison with another: no note stops
+    if (best == kNone) best = poly_victim(note, allowed);
     if (best == kNone) return;  // every motor is busy with a note the priority keeps
     hand_over(best);
     int octaves;
     resolve(best, note, &best_played, &octaves);
   }
-  voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_, now_us_};
+  voices_[best] = Voice{true, ch, note, best_played, true, false, ++sequence_, now_us_, false, layer};
   start_glide(best, ch, false);
   retune(best);
-  set_doublers(best, extra);
+  set_doublers(best, extra, allowed);
 }
 
-size_t Allocator::poly_victim(uint8_t note) const noexcept {
+size_t Allocator::poly_victim(uint8_t note, uint32_t allowed) const noexcept {
   size_t victim = kNone;
   for (size_t m = 0; m < config_.motor_count; ++m) {
     const Voice &v = voices_[m];
     uint8_t played;
     int octaves;
-    if (!v.active || !resolve(m, note, &played, &octaves)) continue;
+    if (!(allowed >> m & 1) || !v.active || !resolve(m, note, &played, &octaves)) continue;
     if (victim == kNone) {
       victim = m;
       continue;
@@ -126,7 +137,7 @@ size_t Allocator::poly_victim(uint8_t note) const noexcept {
 
 bool Allocator::same_key(size_t m, size_t p) const noexcept {
   const Voice &v = voices_[m], &w = voices_[p];
-  return v.active && w.active && v.channel == w.channel && v.note == w.note;
+  return v.active && w.active && v.channel == w.channel && v.note == w.note && v.layer == w.layer;
 }
 
 size_t Allocator::key_motors(size_t p) const noexcept {
@@ -135,7 +146,7 @@ size_t Allocator::key_motors(size_t p) const noexcept {
   return count;
 }
 
-void Allocator::set_doublers(size_t p, uint8_t want) noexcept {
+void Allocator::set_doublers(size_t p, uint8_t want, uint32_t allowed) noexcept {
   const size_t n = config_.motor_count;
   size_t have = key_motors(p) - 1;
   // Too many (a softer strike of a sounding key): the highest motors go first.
@@ -152,7 +163,9 @@ void Allocator::set_doublers(size_t p, uint8_t want) noexcept {
     for (size_t m = 0; m < n; ++m) {
       uint8_t played;
       int octaves;
-      if (voices_[m].active || !resolve(m, voices_[p].note, &played, &octaves) || played != voices_[p].played) continue;
+      if (!(allowed >> m & 1) || voices_[m].active || !resolve(m, voices_[p].note, &played, &octaves) ||
+          played != voices_[p].played)
+        continue;
       if (best == kNone || octaves < best_octaves) best = m, best_octaves = octaves;
     }
     if (best == kNone) return;
@@ -163,13 +176,13 @@ void Allocator::set_doublers(size_t p, uint8_t want) noexcept {
   }
 }
 
-size_t Allocator::spare_motor(uint8_t note) const noexcept {
+size_t Allocator::spare_motor(uint8_t note, uint32_t allowed) const noexcept {
   size_t spare = kNone, spare_key = 0;
   for (size_t m = 0; m < config_.motor_count; ++m) {
     uint8_t played;
     int octaves;
     const size_t key = voices_[m].active ? key_motors(m) : 0;
-    if (key < 2 || !resolve(m, note, &played, &octaves)) continue;
+    if (!(allowed >> m & 1) || key < 2 || !resolve(m, note, &played, &octaves)) continue;
     const Voice &v = voices_[m];
     const Voice *w = spare == kNone ? nullptr : &voices_[spare];
     // The biggest unison first, then a doubler rather than the note's own motor, then the oldest note.

@@ -11,6 +11,16 @@ namespace stepchoir {
 
 // Glide time per step of CC5, us.
 constexpr uint64_t kGlideUsPerStep = 16000;
+// The longest glide time, ms (CC5 at 127).
+constexpr uint16_t kGlideMaxMs = 2032;
+
+// How every channel's glide starts (a preset's [presets.glide], the file's [glide]): its time
+// as CC5 would set it, but to the ms, and glide on without CC65. CC5 and CC65 change it as
+// usual; reset-all-controllers turns glide back to `on`.
+struct GlideConfig {
+  uint16_t time_ms = 0;  // 0 .. kGlideMaxMs
+  bool on = false;       // glide on from the start, as if CC65 were down
+};
 // A poly motor that fell silent this recently still glides into its next note (a player's
 // detached legato), us.
 constexpr uint64_t kGlideAfterSilenceUs = 100000;

@@ -54,6 +54,20 @@ LiveSession::LiveSession(std::vector<LiveBoard> boards, const AllocatorConfig &c
 
 LiveSession::~LiveSession() { stop(); }
 
+void LiveSession::set_presets(std::vector<LivePreset> presets) {
+  if (started_) throw std::logic_error("live: presets are set before the session starts");
+  for (const LivePreset &p : presets) {
+    if (const char *why = Allocator::validate(p.config))
+      throw std::invalid_argument("preset '" + p.name + "': " + why);
+    if (p.config.motor_count != motor_count_)
+      throw std::invalid_argument("preset '" + p.name + "' has " + std::to_string(p.config.motor_count) +
+                                  " motors, the boards " + std::to_string(motor_count_));
+  }
+  presets_ = std::move(presets);
+  if (!presets_.empty()) allocator_.configure(presets_[0].config);
+  preset_.store(presets_.empty() ? -1 : 0);
+}
+
 void LiveSession::start() {
   if (started_) return;
   started_ = true;
@@ -105,7 +119,7 @@ void LiveSession::engine_loop() {
     if (midi_queue_.wait_dequeue_timed(ev, std::chrono::microseconds(wait_us))) {
       RtScope rt;
       do {
-        const size_t n = allocator_.handle(ev, out, Allocator::kMaxMotors);
+        const size_t n = apply(ev, out);
         const uint64_t now = monotonic_us();
         engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
         route(out, n, ev.timestamp_us);
@@ -123,6 +137,23 @@ void LiveSession::engine_loop() {
   RtScope rt;
   const size_t n = allocator_.panic(out, Allocator::kMaxMotors);
   route(out, n, monotonic_us());
+}
+
+// Called from: the engine thread, for each MIDI event. A program change that selects a preset
+// reconfigures the allocator (a copy of about 2 KB, no allocation) and returns a silent entry for
+// every motor that sounded: the switch takes effect in this engine cycle. With presets, every
+// other program change is dropped (no drum kit switching); all else goes to Allocator::handle.
+// Writes at most Allocator::kMaxMotors entries to out; returns the count.
+size_t LiveSession::apply(const MidiEvent &ev, sc::PeriodEntry *out) {
+  if (presets_.empty()) return allocator_.handle(ev, out, Allocator::kMaxMotors);
+  const int chosen = selector_.select(ev, presets_.data(), presets_.size());
+  if (chosen >= 0) {
+    allocator_.configure(presets_[static_cast<size_t>(chosen)].config);  // validated by set_presets
+    preset_.store(chosen, std::memory_order_relaxed);
+    return allocator_.flush(out, Allocator::kMaxMotors);
+  }
+  if ((ev.status & 0xF0) == kMidiProgramChange) return 0;
+  return allocator_.handle(ev, out, Allocator::kMaxMotors);
 }
 
 // Called from: the engine thread. Posts each entry to its board and publishes the motor's note.

@@ -9,6 +9,9 @@
 //   writer thread (one per board): coalesced set-period frames within the link budget,
 //     heartbeats, status requests, state refreshes, jam song frames.
 //   reader thread (one per board): decodes replies (errors, status) for the link health.
+// Presets (live/presets.h): the engine holds every preset's AllocatorConfig, built before start();
+// a program change that selects one reconfigures the allocator and sends the silences within
+// the same engine cycle.
 // The engine and writer threads never allocate, lock or log after start() (RtScope: debug
 // builds abort if they allocate); the writer blocks only in Link::write, the engine only to
 // finish a rare partial write.
@@ -31,6 +34,7 @@
 #include "live/latency_histogram.h"
 #include "live/link_budget.h"
 #include "live/midi_in.h"
+#include "live/presets.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
@@ -55,6 +59,19 @@ class LiveSession {
   ~LiveSession();  // stop()s
   LiveSession(const LiveSession &) = delete;
   LiveSession &operator=(const LiveSession &) = delete;
+
+  // Hands the engine the presets a program change switches between (live/presets.h); the first
+  // becomes active now (the allocator takes its configuration). With none, a program change
+  // keeps its General MIDI meaning (a drum kit by bank select); with presets it only switches
+  // them. Throws std::invalid_argument naming a preset whose configuration Allocator::validate
+  // rejects or whose motor count is not the pool's.
+  // Called from: setup code, before start(). Allocates.
+  void set_presets(std::vector<LivePreset> presets);
+  // The active preset's index in the list set_presets got, -1 when there are none. Called from:
+  // any thread (the main thread's status, displays).
+  int preset() const noexcept { return preset_.load(std::memory_order_relaxed); }
+  // The presets set_presets got; unchanged once start() ran. Called from: any thread.
+  const std::vector<LivePreset> &presets() const noexcept { return presets_; }
 
   // Where the MIDI callback (or a test) puts events. Single producer.
   MidiQueue &midi_queue() { return midi_queue_; }
@@ -106,6 +123,7 @@ class LiveSession {
  private:
   void engine_loop();                                                       // the engine thread
   void route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us);  // engine thread
+  size_t apply(const MidiEvent &ev, sc::PeriodEntry *out);                  // engine thread
 
   std::unique_ptr<LatencyHistogram> latency_ = std::make_unique<LatencyHistogram>();
   std::unique_ptr<LatencyHistogram> engine_latency_ = std::make_unique<LatencyHistogram>();
@@ -116,6 +134,9 @@ class LiveSession {
   size_t motor_count_ = 0;
   MidiQueue midi_queue_{kMidiQueueEvents};
   Allocator allocator_;
+  std::vector<LivePreset> presets_;  // fixed before start(); the engine reads it
+  PresetSelector selector_;          // the engine thread's
+  std::atomic<int> preset_{-1};
   std::array<std::atomic<int16_t>, Allocator::kMaxMotors> notes_{};
   std::atomic<uint64_t> events_{0};
   std::atomic<bool> stop_engine_{false};

@@ -1,0 +1,55 @@
+// toml_read.h: the checked readers the rig file's parsers share (config.cpp, presets.cpp): every
+// mistake becomes std::runtime_error "SOURCE:LINE:COLUMN: what is wrong". Internal to config/.
+#ifndef STEPCHOIR_HOST_CONFIG_TOML_READ_H
+#define STEPCHOIR_HOST_CONFIG_TOML_READ_H
+
+#include <toml++/toml.h>
+
+#include <cstdint>
+#include <initializer_list>
+#include <string>
+
+#include <vector>
+
+#include "config/config.h"
+#include "live/allocator.h"
+
+namespace stepchoir::toml_read {
+
+// "SOURCE:LINE:COLUMN" of a node. Called from: fail, and presets for errors found later.
+std::string where(const std::string &source, const toml::node &node);
+
+// Throws "SOURCE:LINE:COLUMN: message" for a node. Called from: every check.
+[[noreturn]] void fail(const std::string &source, const toml::node &node, const std::string &message);
+
+// Refuses keys the table does not know (a typo must not be silently ignored); `where` names the
+// table in the message.
+void known_keys(const std::string &source, const toml::table &table, std::initializer_list<const char *> keys,
+                const std::string &where);
+
+// A key's value, or fallback when absent: an integer in [lo, hi]; a finite number (integer or
+// float) in [lo, hi]; a string; a boolean.
+int64_t get_int(const std::string &source, const toml::table &t, const char *key, int64_t lo, int64_t hi,
+                int64_t fallback);
+double get_number(const std::string &source, const toml::table &t, const char *key, double lo, double hi,
+                  double fallback);
+std::string get_string(const std::string &source, const toml::table &t, const char *key, const std::string &fallback);
+bool get_bool(const std::string &source, const toml::table &t, const char *key, bool fallback);
+
+// The tables [allocation], [vibrato], [velocity] and [glide] share with [[presets]]: each reads
+// node (which must be a table, `name` in messages) over `base`, so a key left out keeps base's value.
+VibratoConfig read_vibrato(const std::string &source, const toml::node &node, VibratoConfig base, const std::string &name);
+VelocityConfig read_velocity(const std::string &source, const toml::node &node, VelocityConfig base,
+                             const std::string &name);
+GlideConfig read_glide(const std::string &source, const toml::node &node, GlideConfig base, const std::string &name);
+// policy / priority keys of table t ("poly", "oldest", ...), or fallback when absent.
+Policy get_policy(const std::string &source, const toml::table &t, Policy fallback);
+Priority get_priority(const std::string &source, const toml::table &t, Priority fallback);
+
+// [[presets]] (config/presets.cpp): every preset table over the top level `top` already read.
+// Called from: parse_config.
+std::vector<PresetSettings> read_presets(const std::string &source, const toml::node &node, const LiveConfig &top);
+
+}  // namespace stepchoir::toml_read
+
+#endif  // STEPCHOIR_HOST_CONFIG_TOML_READ_H
