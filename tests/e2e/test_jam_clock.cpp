@@ -1,8 +1,9 @@
 // test_jam_clock.cpp: `stepchoir jam --midi-clock` following a DAW-like MIDI clock through JACK:
 // 24 ticks a beat, each sent up to 1 ms off its time, Start, a tempo change, Stop. The song's
 // onsets, read from the virtual board's trace and laid on the machine's monotonic clock, against
-// the clock's own beat grid (its ticks' times without the jitter), over two minutes: the song
-// takes the clock's tempo (not its own) before and after the change, and stays on its grid.
+// the clock's own beat grid (its ticks' times without the jitter), for a minute (two on
+// request): the song takes the clock's tempo (not its own) on both sides of the change, and
+// stays on its grid.
 // The figures are printed: the 2 ms target is not met yet (jam's board clock sync, its
 // round trips through the live path, leaves an offset of a few ms that a stall moves).
 #include <catch2/catch.hpp>
@@ -54,12 +55,15 @@ std::string write_beat_song(const std::string &name, int beats) {
 
 }  // namespace
 
-TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid over two minutes",
+TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
           "[play][jam][pacing]") {
   JackServer jack(64);  // 1.3 ms periods: MIDI moves once a period
   Sender daw;
-  const int beats = 224;  // 110 bpm for 96 beats (52 s), then 140 bpm (55 s)
-  const int change_beat = 96;
+  // A minute in CI: 110 bpm for 48 beats (26 s), then 140 bpm for 64 (27 s). The two
+  // minutes (96 and 128 beats): STEPCHOIR_JAM_CLOCK_LONG=1 build/bin/test_e2e "jam: the song follows*".
+  const bool long_run = std::getenv("STEPCHOIR_JAM_CLOCK_LONG") != nullptr;
+  const int beats = long_run ? 224 : 112;
+  const int change_beat = long_run ? 96 : 48;
   const std::string song = write_beat_song("jam-clock.mid", beats);
   const std::string trace_path = scratch("jam-clock.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
