@@ -170,12 +170,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
   }
   AllocatorConfig alloc = pool_config(pool, policy);
-  alloc.priority = cfg.priority;
-  alloc.sing_percussion = cfg.sing_percussion;
-  alloc.a4_hz = cfg.a4_hz;
-  alloc.vibrato = cfg.vibrato;
-  alloc.velocity = cfg.velocity;
-  alloc.glide = cfg.glide;
+  apply_allocation(cfg, &alloc);
   for (size_t b = 0, first = 0; b < pool.size(); first += pool[b].motor_count, ++b) {
     const BoardSettings *settings = board_settings(rig, ports[b], b);
     for (size_t m = 0; settings && m < settings->motors.size() && m < pool[b].motor_count; ++m) {

@@ -346,11 +346,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, boards[b].caps.f_cpu_hz, boards[b].live_ids);
         std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
       }
-      alloc.a4_hz = rig.config.a4_hz;
-      alloc.vibrato = rig.config.vibrato;
-      alloc.velocity = rig.config.velocity;
-      alloc.priority = rig.config.priority;
-      alloc.sing_percussion = rig.config.sing_percussion;
+      apply_allocation(rig.config, &alloc);
       session = std::make_unique<LiveSession>(lbs, alloc);
       for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());

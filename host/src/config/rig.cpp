@@ -67,6 +67,15 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
   }
 }
 
+void apply_allocation(const LiveConfig &cfg, AllocatorConfig *alloc) {
+  alloc->priority = cfg.priority;
+  alloc->sing_percussion = cfg.sing_percussion;
+  alloc->a4_hz = cfg.a4_hz;
+  alloc->vibrato = cfg.vibrato;
+  alloc->velocity = cfg.velocity;
+  alloc->glide = cfg.glide;
+}
+
 void say_line(const std::string &line) {
   std::printf("%s\n", line.c_str());
   std::fflush(stdout);

@@ -61,6 +61,10 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
 void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
                 const std::vector<int> &motors, const std::function<void(const std::string &)> &say);
 
+// The file's settings of the keyboard's allocation: priority, drum channels, tuning, vibrato,
+// velocity doubling and glide (policy and motors are the caller's). Called from: live, jam.
+void apply_allocation(const LiveConfig &cfg, AllocatorConfig *alloc);
+
 // Prints a line and flushes stdout: home_board's `say` for the commands.
 void say_line(const std::string &line);
 
