@@ -18,10 +18,9 @@ uint16_t steps_per_s(double mm_per_s, const MotionSettings &ms) {
 
 std::string motor_name(const std::string &port, uint8_t motor) { return port + ": motor " + std::to_string(motor); }
 
-// The longest a move of `steps` may take on its ramp (s), with room for the link and the start.
-double move_seconds(uint32_t steps, uint16_t v_min, uint16_t v_max) {
-  return 2.0 + 2.0 * (double(steps) / v_max + 2.0 * double(v_max) / std::max<double>(v_min, 1.0) / v_max);
-}
+// The longest a move of `steps` may take (s): every step at the ramp's slowest speed, and 2 s
+// for the link and the start.
+double move_seconds(uint32_t steps, uint16_t v_min) { return 2.0 + double(steps) / v_min; }
 
 }  // namespace
 
@@ -48,7 +47,7 @@ MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int6
   board.send(move_payload(b));
   using clock = std::chrono::steady_clock;
   const auto deadline = clock::now() + std::chrono::duration_cast<clock::duration>(
-                                           std::chrono::duration<double>(move_seconds(b.steps, b.speed_min, b.speed_max)));
+                                           std::chrono::duration<double>(move_seconds(b.steps, b.speed_min)));
   for (;;) {
     const auto reply = board.wait_reply(sc::kMsgMoveDone, 100);
     for (size_t i = errors_before; i < board.errors().size(); ++i) {
