@@ -21,6 +21,7 @@
 
 #include "board/board.h"
 #include "board/vboard_child.h"
+#include "cli/learn_prompt.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "live/realtime_setup.h"
@@ -182,8 +183,16 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   }
   std::vector<LivePreset> presets = live_presets(cfg, alloc);  // every motor index checked against the pool
   const std::string locked = lock_memory();  // before the real-time threads start
+  const std::vector<Binding> controls = live_controls(cfg, alloc.motor_count);
+  std::unique_ptr<LearnPrompt> learn;
+  if (o.learn) {
+    const std::string path = rig.path.empty() ? default_config_path() : rig.path;
+    if (path.empty()) throw std::runtime_error("--learn: no rig file to save to (give --config FILE, or set HOME)");
+    learn = std::make_unique<LearnPrompt>(path, alloc.motor_count);
+  }
   LiveSession session(pool, alloc);
   session.set_presets(std::move(presets));
+  for (const Binding &b : controls) session.bind(b);
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
   const char *policy_names[] = {"poly", "channel", "mono"};
@@ -204,6 +213,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   for (unsigned tick = 1; !stop.load(); ++tick) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     if (tick % 10 == 0) watch_midi_input(midi, api, midi_selector, session, tty);
+    if (learn) learn->poll(session);
     uint64_t errors = 0;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();

@@ -21,6 +21,7 @@ struct LiveOptions {
   std::string vboard_board = "uno";      // board the virtual board simulates
   std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
   bool quiet = false;                    // no status line
+  bool learn = false;                    // MIDI learn from standard input (cli/learn_prompt.h)
 };
 
 // Runs until *stop is set (Ctrl-C, SIGTERM) or a board's link fails; silences every motor

@@ -208,6 +208,8 @@ int main(int argc, char **argv) {
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
+  live->add_flag("--learn", live_opt.learn,
+                 "MIDI learn: type an action, move a control; it is saved to the rig file's [[controls]]");
 
   auto *config = app.add_subcommand("config", "The rig configuration file every command reads");
   auto *print_default = config->add_flag("--print-default", "Print the commented default configuration");

@@ -141,7 +141,8 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
                              std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
   }
   known_keys(source, root,
-             {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "glide", "boards", "presets"},
+             {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "glide", "boards", "presets",
+              "controls"},
              "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
@@ -188,6 +189,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     }
   }
   if (const toml::node *n = root.get("presets")) c.presets = read_presets(source, *n, c);
+  if (const toml::node *n = root.get("controls")) c.controls = read_controls(source, *n);
   return c;
 }
 

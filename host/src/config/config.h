@@ -13,6 +13,7 @@
 #include "board/motion.h"
 #include "live/allocator.h"
 #include "live/presets.h"
+#include "live/stage.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
@@ -58,6 +59,12 @@ struct PresetSettings {
   std::vector<ZoneSettings> zones;
 };
 
+// One [[controls]] table: a learned controller (`stepchoir live --learn` writes them).
+struct ControlSettings {
+  Binding binding;
+  std::string where;  // "FILE:LINE:COLUMN" of its table, for a motor the pool lacks
+};
+
 struct LiveConfig {
   std::string midi_input = "virtual";
   std::string midi_api = "alsa";
@@ -71,6 +78,7 @@ struct LiveConfig {
   GlideConfig glide;              // [glide]: the glide every channel starts with
   std::vector<BoardSettings> boards;
   std::vector<PresetSettings> presets;  // [[presets]], in file order: the first is active at start
+  std::vector<ControlSettings> controls;  // [[controls]], in file order
 };
 
 // Hardware defaults for one motor: A4988 at 16 microsteps, switches active low, 3200 steps of
@@ -102,6 +110,22 @@ AllocatorConfig preset_config(const AllocatorConfig &base, const PresetSettings 
 // Every preset of the file as the engine holds them (LiveSession::set_presets), in file order.
 // Called from: `stepchoir live`, before the session starts. Throws as preset_config.
 std::vector<LivePreset> live_presets(const LiveConfig &config, const AllocatorConfig &base);
+
+// The learned controllers of the file, checked against a pool of motor_count motors. Throws
+// std::runtime_error "FILE:LINE:COLUMN: ..." for a mute_motor whose motor the pool lacks.
+// Called from: `stepchoir live`, before the session starts.
+std::vector<Binding> live_controls(const LiveConfig &config, size_t motor_count);
+
+// The [[controls]] table of a binding, as save_control writes it.
+std::string control_text(const Binding &b);
+
+// Saves a learned controller to the rig file at path (created, with its directory, when
+// missing): removes every [[controls]] table on the same controller and channel or with the
+// same action (and motor), then appends b's. The rest of the file is kept as written. The file
+// is replaced in one rename. Throws std::runtime_error naming the path when it cannot write,
+// or "PATH:LINE:COLUMN: ..." when the result would not load.
+// Called from: `stepchoir live --learn`, on the main thread.
+void save_control(const std::string &path, const Binding &b);
 
 // "poly" / "channel" / "mono"; throws std::invalid_argument naming the value otherwise.
 Policy parse_policy(const std::string &name);

@@ -50,6 +50,9 @@ Priority get_priority(const std::string &source, const toml::table &t, Priority 
 // Called from: parse_config.
 std::vector<PresetSettings> read_presets(const std::string &source, const toml::node &node, const LiveConfig &top);
 
+// [[controls]] (config/controls.cpp): every learned controller. Called from: parse_config.
+std::vector<ControlSettings> read_controls(const std::string &source, const toml::node &node);
+
 }  // namespace stepchoir::toml_read
 
 #endif  // STEPCHOIR_HOST_CONFIG_TOML_READ_H

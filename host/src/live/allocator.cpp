@@ -166,7 +166,7 @@ double Allocator::bend_range_semitones(uint8_t ch) const noexcept {
 bool Allocator::sustain(uint8_t ch) const noexcept { return ch <= 15 && channels_[ch].pedal; }
 
 bool Allocator::resolve(size_t m, uint8_t note, uint8_t *played, int *octaves) const noexcept {
-  return resolve_note(config_.motors[m], note, played, octaves, config_.transpose);
+  return resolve_note(config_.motors[m], note, played, octaves, config_.transpose + stage_transpose_);
 }
 
 bool resolve_note(const MotorConfig &mc, uint8_t note, uint8_t *played, int *octaves, int transpose) noexcept {
@@ -198,7 +198,7 @@ void Allocator::release(size_t m) noexcept {
 
 void Allocator::retune(size_t m) noexcept {
   const Voice &v = voices_[m];
-  if (!v.active) {
+  if (!v.active || (stage_mutes_ >> m & 1)) {
     period_[m] = sc::kPeriodSilent;
     return;
   }

@@ -218,6 +218,25 @@ class Allocator {
   // Called from: the engine thread. Does not allocate or block.
   void set_a4_hz(double a4_hz) noexcept;
 
+  // The performer's stage controls (live/stage.h). They outlast configure(): a preset switch
+  // keeps the stage transpose and mutes. Called from: the engine thread (LiveSession), setup
+  // code, tests. Do not allocate or block.
+  // Semitones (clamped to -48..48) added to every key besides the preset's and each motor's
+  // transpose, for notes that start from now: a held note keeps its pitch, and its note-off
+  // still finds it by key.
+  void set_stage_transpose(int semitones) noexcept;
+  int stage_transpose() const noexcept { return stage_transpose_; }
+  // Bit m: motor m plays nothing. A newly muted motor falls silent now (in kPoly its note
+  // moves to one of its doublers, if any); an unmuted one in kMono/kChannel rejoins its
+  // channel's note at once, in kPoly it takes the next note.
+  void set_stage_mutes(uint32_t mask) noexcept;
+  uint32_t stage_mutes() const noexcept { return stage_mutes_; }
+  // A control change on every channel (a knob that sets every channel's vibrato depth or glide).
+  void control_all(uint8_t cc, uint8_t value) noexcept;
+  // The vibrato's rate (0 < hz <= 20; else ignored), phase-continuous: every sounding note's
+  // sine carries on from where it is. Until the next configure().
+  void set_vibrato_rate(double hz) noexcept;
+
   // Queries. Called from: the engine thread (or any thread while the engine is stopped).
   // Do not allocate or block.
   MotorState motor(size_t m) const noexcept;          // a default MotorState for m out of range
@@ -291,7 +310,11 @@ class Allocator {
   void retune(size_t m) noexcept;              // recomputes period_[m] from voices_[m]
   void retune_channel(uint8_t ch) noexcept;
 
+  uint32_t muted_mask() const noexcept { return config_.muted_motors | stage_mutes_; }
+
   AllocatorConfig config_;
+  int stage_transpose_ = 0;
+  uint32_t stage_mutes_ = 0;
   std::array<Voice, kMaxMotors> voices_{};
   std::array<uint32_t, kMaxMotors> period_{};    // what each motor should play now
   std::array<uint32_t, kMaxMotors> reported_{};  // what flush() last reported

@@ -39,7 +39,7 @@ void Allocator::note_off(uint8_t ch, uint8_t note) noexcept {
 }
 
 void Allocator::poly_note_on(uint8_t ch, uint8_t note, uint8_t extra) noexcept {
-  const uint32_t unmuted = ~config_.muted_motors;
+  const uint32_t unmuted = ~muted_mask();
   if (config_.zone_count == 0) {
     poly_place(ch, note, extra, kNone, unmuted);
     return;

@@ -96,6 +96,45 @@ long LiveSession::read_board_bytes(size_t b, uint8_t *out, size_t len, int timeo
   return boards_.at(b)->read_replies(out, len, timeout_ms);
 }
 
+bool LiveSession::perform(const StageAction &a) {
+  StageCommand c;
+  c.action = a;
+  return stage_queue_.try_enqueue(c);
+}
+
+bool LiveSession::select_preset(size_t index) {
+  StageCommand c;
+  c.kind = StageCommand::Kind::kPreset;
+  c.preset = index;
+  return stage_queue_.try_enqueue(c);
+}
+
+bool LiveSession::bind(const Binding &b) {
+  StageCommand c;
+  c.kind = StageCommand::Kind::kBind;
+  c.binding = b;
+  return stage_queue_.try_enqueue(c);
+}
+
+bool LiveSession::learn(Action a, uint8_t motor) {
+  StageCommand c;
+  c.kind = StageCommand::Kind::kLearn;
+  c.action = StageAction{a, 127, motor};
+  learned_.store(0, std::memory_order_relaxed);
+  return stage_queue_.try_enqueue(c);
+}
+
+std::optional<Binding> LiveSession::learned() {
+  const uint64_t v = learned_.exchange(0, std::memory_order_acquire);
+  if (!(v & kLearnedValid)) return std::nullopt;
+  return Binding{static_cast<int8_t>(int(v >> 24 & 0xFF) - 1), static_cast<uint8_t>(v >> 16 & 0xFF),
+                 static_cast<Action>(v >> 8 & 0xFF), static_cast<uint8_t>(v & 0xFF)};
+}
+
+uint32_t LiveSession::motor_period_q8(size_t m) const noexcept {
+  return m < periods_.size() ? periods_[m].load(std::memory_order_relaxed) : 0;
+}
+
 int LiveSession::motor_note(size_t m) const noexcept {
   return m < notes_.size() ? notes_[m].load(std::memory_order_relaxed) : -1;
 }
@@ -115,8 +154,15 @@ void LiveSession::engine_loop() {
   while (!stop_engine_.load(std::memory_order_acquire)) {
     const bool vibrating = allocator_.vibrating();
     const uint64_t start = monotonic_us();
-    const uint64_t wait_us = !vibrating ? 20000 : next_tick_us > start ? next_tick_us - start : 0;
-    if (midi_queue_.wait_dequeue_timed(ev, std::chrono::microseconds(wait_us))) {
+    const uint64_t wait_us = !vibrating ? kIdleWaitUs : next_tick_us > start ? next_tick_us - start : 0;
+    const bool got = midi_queue_.wait_dequeue_timed(ev, std::chrono::microseconds(wait_us));
+    // The stage's commands first: one queued before a MIDI event arrived applies before it.
+    StageCommand command;
+    while (stage_queue_.try_dequeue(command)) {
+      RtScope rt;
+      route(out, stage(command, out), 0);  // no key caused these: they stay out of the latency
+    }
+    if (got) {
       RtScope rt;
       do {
         const size_t n = apply(ev, out);
@@ -139,21 +185,89 @@ void LiveSession::engine_loop() {
   route(out, n, monotonic_us());
 }
 
-// Called from: the engine thread, for each MIDI event. A program change that selects a preset
-// reconfigures the allocator (a copy of about 2 KB, no allocation) and returns a silent entry for
+// Called from: the engine thread, for each MIDI event. While a learn() waits, the first control
+// change 0-119 becomes its binding and goes no further. A control change a binding claims is its
+// action's alone (act()). A program change that selects a preset reconfigures the allocator (a copy of about 2 KB, no allocation) and returns a silent entry for
 // every motor that sounded: the switch takes effect in this engine cycle. With presets, every
 // other program change is dropped (no drum kit switching); all else goes to Allocator::handle.
 // Writes at most Allocator::kMaxMotors entries to out; returns the count.
 size_t LiveSession::apply(const MidiEvent &ev, sc::PeriodEntry *out) {
+  const bool controller = (ev.status & 0xF0) == kMidiControlChange && ev.data1 < kCcAllSoundOff;
+  if (learning_ && controller) {
+    const Binding b{static_cast<int8_t>(ev.status & 0x0F), ev.data1, learning_->action, learning_->motor};
+    learning_.reset();
+    if (controls_.bind(b))
+      learned_.store(kLearnedValid | uint64_t(b.channel + 1) << 24 | uint64_t(b.cc) << 16 |
+                         uint64_t(static_cast<uint8_t>(b.action)) << 8 | b.motor,
+                     std::memory_order_release);
+    return 0;
+  }
+  StageAction action;
+  bool fire = false;
+  if (controller && controls_.claim(ev, &action, &fire)) return fire ? act(action, out) : 0;
   if (presets_.empty()) return allocator_.handle(ev, out, Allocator::kMaxMotors);
   const int chosen = selector_.select(ev, presets_.data(), presets_.size());
-  if (chosen >= 0) {
-    allocator_.configure(presets_[static_cast<size_t>(chosen)].config);  // validated by set_presets
-    preset_.store(chosen, std::memory_order_relaxed);
-    return allocator_.flush(out, Allocator::kMaxMotors);
-  }
+  if (chosen >= 0) return switch_preset(static_cast<size_t>(chosen), out);
   if ((ev.status & 0xF0) == kMidiProgramChange) return 0;
   return allocator_.handle(ev, out, Allocator::kMaxMotors);
+}
+
+// Called from: the engine thread. Makes preset `index` active (validated by set_presets) and
+// returns a silent entry for every motor that sounded.
+size_t LiveSession::switch_preset(size_t index, sc::PeriodEntry *out) {
+  if (index >= presets_.size()) return 0;
+  allocator_.configure(presets_[index].config);
+  preset_.store(static_cast<int>(index), std::memory_order_relaxed);
+  return allocator_.flush(out, Allocator::kMaxMotors);
+}
+
+// Called from: the engine thread, for each command of the stage queue.
+size_t LiveSession::stage(const StageCommand &c, sc::PeriodEntry *out) {
+  switch (c.kind) {
+    case StageCommand::Kind::kAction: return act(c.action, out);
+    case StageCommand::Kind::kPreset: return switch_preset(c.preset, out);
+    case StageCommand::Kind::kBind: controls_.bind(c.binding); return 0;
+    case StageCommand::Kind::kLearn: learning_ = c.action; return 0;
+  }
+  return 0;
+}
+
+// Called from: the engine thread: a stage action (a learned controller's or the main thread's).
+// Writes at most Allocator::kMaxMotors entries to out; returns the count.
+size_t LiveSession::act(const StageAction &a, sc::PeriodEntry *out) {
+  const int steps[] = {1, -1, 12, -12};
+  switch (a.action) {
+    case Action::kTransposeUp:
+    case Action::kTransposeDown:
+    case Action::kOctaveUp:
+    case Action::kOctaveDown:
+      allocator_.set_stage_transpose(allocator_.stage_transpose() + steps[static_cast<int>(a.action)]);
+      stage_transpose_.store(allocator_.stage_transpose(), std::memory_order_relaxed);
+      return 0;
+    case Action::kGlideTime:
+      allocator_.control_all(kCcPortamentoTime, a.value);
+      allocator_.control_all(kCcPortamento, a.value > 0 ? 127 : 0);
+      break;
+    case Action::kVibratoDepth: allocator_.control_all(kCcModWheel, a.value); break;
+    case Action::kVibratoRate: allocator_.set_vibrato_rate(vibrato_rate_hz(a.value)); return 0;
+    case Action::kPresetNext:
+    case Action::kPresetPrevious: {
+      if (presets_.empty()) return 0;
+      const size_t n = presets_.size(), now = static_cast<size_t>(preset_.load(std::memory_order_relaxed));
+      return switch_preset(a.action == Action::kPresetNext ? (now + 1) % n : (now + n - 1) % n, out);
+    }
+    case Action::kSetlistNext: setlist_steps_.fetch_add(1, std::memory_order_relaxed); return 0;
+    case Action::kSetlistPrevious: setlist_steps_.fetch_sub(1, std::memory_order_relaxed); return 0;
+    case Action::kPanic:
+      panics_.fetch_add(1, std::memory_order_relaxed);
+      return allocator_.panic(out, Allocator::kMaxMotors);
+    case Action::kMuteMotor:
+      if (a.motor >= motor_count_) return 0;
+      allocator_.set_stage_mutes(allocator_.stage_mutes() ^ (1u << a.motor));
+      stage_mutes_.store(allocator_.stage_mutes(), std::memory_order_relaxed);
+      break;
+  }
+  return allocator_.flush(out, Allocator::kMaxMotors);
 }
 
 // Called from: the engine thread. Posts each entry to its board and publishes the motor's note.
@@ -164,6 +278,7 @@ void LiveSession::route(const sc::PeriodEntry *entries, size_t n, uint64_t event
     boards_[board_of_[m]]->post(MotorUpdate{board_motor_[m], entries[i].period_q8, event_us});
     const MotorState s = allocator_.motor(m);
     notes_[m].store(s.sounding && s.period_q8 ? s.played_note : -1, std::memory_order_relaxed);
+    periods_[m].store(entries[i].period_q8, std::memory_order_relaxed);
   }
 }
 

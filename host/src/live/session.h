@@ -9,6 +9,9 @@
 //   writer thread (one per board): coalesced set-period frames within the link budget,
 //     heartbeats, status requests, state refreshes, jam song frames.
 //   reader thread (one per board): decodes replies (errors, status) for the link health.
+// Stage actions (live/stage.h): the main thread's commands (console keys, the learn prompt, the
+// setlist) reach the engine through a second single-producer queue; learned controllers are
+// claimed by the engine before the allocator sees them.
 // Presets (live/presets.h): the engine holds every preset's AllocatorConfig, built before start();
 // a program change that selects one reconfigures the allocator and sends the silences within
 // the same engine cycle.
@@ -24,6 +27,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -35,6 +39,7 @@
 #include "live/link_budget.h"
 #include "live/midi_in.h"
 #include "live/presets.h"
+#include "live/stage.h"
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
@@ -76,6 +81,23 @@ class LiveSession {
   // Where the MIDI callback (or a test) puts events. Single producer.
   MidiQueue &midi_queue() { return midi_queue_; }
 
+  // The performer's stage (live/stage.h). Called from: the main thread alone, the stage
+  // queue's one producer (console keys, the learn prompt, the setlist); before start() too.
+  // The engine applies each command within kIdleWaitUs. Each returns false when the queue is
+  // full (kStageCommands wait) and then does nothing. None allocates.
+  bool perform(const StageAction &a);
+  bool select_preset(size_t index);         // ignored for an index past the presets
+  bool bind(const Binding &b);              // a learned controller (the rig file's [[controls]])
+  bool learn(Action a, uint8_t motor = 0);  // binds the next control change 0-119, any channel, to a
+  // The binding the engine made for the latest learn(), once; nothing while it waits.
+  std::optional<Binding> learned();
+  // Setlist presses (kSetlistNext minus kSetlistPrevious) since the last call. Main thread.
+  int take_setlist_steps() noexcept { return setlist_steps_.exchange(0, std::memory_order_relaxed); }
+  // The stage's state, for displays. Called from: any thread.
+  int stage_transpose() const noexcept { return stage_transpose_.load(std::memory_order_relaxed); }
+  uint32_t stage_mutes() const noexcept { return stage_mutes_.load(std::memory_order_relaxed); }
+  uint64_t panics() const noexcept { return panics_.load(std::memory_order_relaxed); }
+
   // Sets every board's watchdog to the protocol default and starts the threads.
   // Called from: the main thread, once.
   void start();
@@ -108,6 +130,9 @@ class LiveSession {
   // Per pool motor: the MIDI note it plays (played note, after folding), or -1 when silent.
   // Called from: any thread.
   int motor_note(size_t m) const noexcept;
+  // Per pool motor: the period it plays now (board timer ticks q8, bend and vibrato included),
+  // 0 when silent. Called from: any thread.
+  uint32_t motor_period_q8(size_t m) const noexcept;
   size_t motor_count() const noexcept { return motor_count_; }
   size_t board_count() const noexcept { return boards_.size(); }
   const BoardStats &board_stats(size_t b) const { return boards_[b]->stats(); }
@@ -121,7 +146,21 @@ class LiveSession {
   const LatencyHistogram &engine_latency() const { return *engine_latency_; }
 
  private:
+  // What the main thread asks of the engine (the stage queue's element).
+  struct StageCommand {
+    enum class Kind : uint8_t { kAction, kPreset, kBind, kLearn } kind = Kind::kAction;
+    StageAction action;  // kAction; kLearn: the action and motor to bind
+    Binding binding;     // kBind
+    size_t preset = 0;   // kPreset
+  };
+  static constexpr size_t kStageCommands = 256;
+  // How long the engine waits for MIDI before it looks at the stage queue and its stop flag, us.
+  static constexpr uint64_t kIdleWaitUs = 5000;
+
   void engine_loop();                                                       // the engine thread
+  size_t stage(const StageCommand &c, sc::PeriodEntry *out);                // engine thread
+  size_t act(const StageAction &a, sc::PeriodEntry *out);                   // engine thread
+  size_t switch_preset(size_t index, sc::PeriodEntry *out);                 // engine thread
   void route(const sc::PeriodEntry *entries, size_t n, uint64_t event_us);  // engine thread
   size_t apply(const MidiEvent &ev, sc::PeriodEntry *out);                  // engine thread
 
@@ -138,6 +177,15 @@ class LiveSession {
   PresetSelector selector_;          // the engine thread's
   std::atomic<int> preset_{-1};
   std::array<std::atomic<int16_t>, Allocator::kMaxMotors> notes_{};
+  std::array<std::atomic<uint32_t>, Allocator::kMaxMotors> periods_{};
+  moodycamel::ReaderWriterQueue<StageCommand> stage_queue_{kStageCommands};
+  ControlMap controls_;                   // the engine thread's
+  std::optional<StageAction> learning_;   // the engine thread's: what the next controller binds to
+  std::atomic<uint64_t> learned_{0};      // kLearnedValid | channel+1 << 24 | cc << 16 | action << 8 | motor
+  static constexpr uint64_t kLearnedValid = uint64_t{1} << 40;
+  std::atomic<int> setlist_steps_{0}, stage_transpose_{0};
+  std::atomic<uint32_t> stage_mutes_{0};
+  std::atomic<uint64_t> panics_{0};
   std::atomic<uint64_t> events_{0};
   std::atomic<bool> stop_engine_{false};
   std::thread engine_;

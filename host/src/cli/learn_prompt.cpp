@@ -1,0 +1,95 @@
+// learn_prompt.cpp: `stepchoir live --learn` (see learn_prompt.h).
+#include "cli/learn_prompt.h"
+
+#include <poll.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <sstream>
+
+#include "config/config.h"
+
+namespace stepchoir {
+
+std::optional<LearnRequest> parse_learn_request(const std::string &line, size_t motor_count, std::string *why) {
+  std::istringstream in(line);
+  std::string word;
+  in >> word;
+  LearnRequest r;
+  if (const auto named = parse_action(word)) {
+    r.action = *named;
+  } else {
+    char *end = nullptr;
+    const long number = std::strtol(word.c_str(), &end, 10);
+    if (word.empty() || *end != '\0' || number < 1 || number > long(kActionCount)) {
+      *why = "'" + word + "': type an action's number (1-" + std::to_string(kActionCount) + ") or name";
+      return std::nullopt;
+    }
+    r.action = static_cast<Action>(number - 1);
+  }
+  if (r.action == Action::kMuteMotor) {
+    long motor = -1;
+    if (!(in >> motor) || motor < 0 || motor >= long(motor_count)) {
+      *why = "mute_motor needs a motor, 0-" + std::to_string(motor_count - 1) + " (\"mute_motor 2\")";
+      return std::nullopt;
+    }
+    r.motor = static_cast<uint8_t>(motor);
+  }
+  return r;
+}
+
+std::string describe_control(const Binding &b) {
+  return "CC " + std::to_string(b.cc) +
+         (b.channel < 0 ? std::string(" on any channel") : " on channel " + std::to_string(b.channel + 1));
+}
+
+LearnPrompt::LearnPrompt(std::string path, size_t motor_count) : path_(std::move(path)), motor_count_(motor_count) {
+  std::printf("live: learn: type an action (its number or name; mute_motor takes a motor), then move a knob or press a pedal; it is saved to %s\n",
+              path_.c_str());
+  for (size_t i = 0; i < kActionCount; ++i)
+    std::printf("  %2zu %s%s\n", i + 1, action_name(static_cast<Action>(i)),
+                action_is_knob(static_cast<Action>(i)) ? " (a knob)" : "");
+  std::fflush(stdout);
+}
+
+void LearnPrompt::poll(LiveSession &session) {
+  if (const auto b = session.learned()) {
+    try {
+      save_control(path_, *b);
+      std::printf("live: learned %s -> %s%s, saved to %s\n", describe_control(*b).c_str(), action_name(b->action),
+                  b->action == Action::kMuteMotor ? (" " + std::to_string(b->motor)).c_str() : "", path_.c_str());
+    } catch (const std::exception &e) {
+      std::printf("live: learned %s -> %s, but it is not saved: %s\n", describe_control(*b).c_str(),
+                  action_name(b->action), e.what());
+    }
+    std::fflush(stdout);
+  }
+  while (input_open_) {
+    pollfd p{0, POLLIN, 0};
+    if (::poll(&p, 1, 0) <= 0) return;
+    char buf[256];
+    const ssize_t n = ::read(0, buf, sizeof buf);
+    if (n <= 0) {
+      input_open_ = false;
+      return;
+    }
+    pending_.append(buf, static_cast<size_t>(n));
+    for (size_t eol; (eol = pending_.find('\n')) != std::string::npos;) {
+      const std::string line = pending_.substr(0, eol);
+      pending_.erase(0, eol + 1);
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      std::string why;
+      const auto r = parse_learn_request(line, motor_count_, &why);
+      if (!r) {
+        std::printf("live: learn: %s\n", why.c_str());
+      } else if (session.learn(r->action, r->motor)) {
+        std::printf("live: learn: move the control for %s\n", action_name(r->action));
+      }
+      std::fflush(stdout);
+    }
+  }
+}
+
+}  // namespace stepchoir
