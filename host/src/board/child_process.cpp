@@ -26,9 +26,18 @@ ChildProcess::ChildProcess(const std::vector<std::string> &argv, Options options
   if (argv.empty()) throw std::runtime_error("no program to start");
   // Close-on-exec: neither end reaches this child (but as its stdout) or any later one.
   int out[2] = {-1, -1};
+  int in[2] = {-1, -1};
   if (options.capture_stdout && pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
+  if (options.pipe_stdin && pipe2(in, O_CLOEXEC) != 0) {
+    if (options.capture_stdout) {
+      close(out[0]);
+      close(out[1]);
+    }
+    throw std::runtime_error("pipe failed");
+  }
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
+  if (options.pipe_stdin) posix_spawn_file_actions_adddup2(&fa, in[0], 0);
   if (options.capture_stdout) {
     posix_spawn_file_actions_adddup2(&fa, out[1], 1);
   } else if (!options.inherit_stdout) {
@@ -47,17 +56,32 @@ ChildProcess::ChildProcess(const std::vector<std::string> &argv, Options options
   posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&fa);
   if (options.capture_stdout) close(out[1]);
+  if (options.pipe_stdin) close(in[0]);
   if (rc != 0) {
     if (options.capture_stdout) close(out[0]);
+    if (options.pipe_stdin) close(in[1]);
     pid_ = -1;
     throw std::runtime_error("cannot start " + argv[0]);
   }
   out_ = out[0];
+  in_ = in[1];
 }
 
 ChildProcess::~ChildProcess() {
   if (pid_ > 0) signal_and_wait(SIGKILL);
   if (out_ >= 0) close(out_);
+  if (in_ >= 0) close(in_);
+}
+
+bool ChildProcess::write_stdin(const std::string &text) {
+  size_t done = 0;
+  while (in_ >= 0 && done < text.size()) {
+    const ssize_t n = write(in_, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return in_ >= 0;
 }
 
 bool ChildProcess::read_line(std::string *line, int timeout_ms) {

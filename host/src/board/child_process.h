@@ -17,6 +17,7 @@ class ChildProcess {
     bool capture_stdout = false;  // stdout through a pipe (read_line), else /dev/null ...
     bool own_group = false;       // its own process group: a terminal's Ctrl-C does not reach it
     bool inherit_stdout = false;  // ... or, without capture_stdout, this process's stdout
+    bool pipe_stdin = false;      // stdin from a pipe (write_stdin), else this process's stdin
   };
   // Called from: the commands and the tests. Starts argv[0] (a path) with this process's
   // environment. Throws std::runtime_error when it cannot start.
@@ -33,6 +34,10 @@ class ChildProcess {
   // Every stdout line until the child closes stdout or timeout_ms passes between two lines.
   std::string read_rest(int timeout_ms);
 
+  // Writes text to the child's stdin (Options::pipe_stdin); false when it cannot (no pipe, the
+  // child closed it).
+  bool write_stdin(const std::string &text);
+
   // Sends sig and waits for the exit: the exit status, or -1 when a signal ended it (again on
   // later calls).
   int signal_and_wait(int sig);
@@ -47,6 +52,7 @@ class ChildProcess {
   pid_t pid_ = -1;
   int status_ = -1;
   int out_ = -1;
+  int in_ = -1;
   std::string buffer_;
 };
 

@@ -322,6 +322,15 @@ on = false
 # max_speed = 40.0           # mm/s (the board steps at most 5,000 steps/s)
 # home_speed = 20.0          # mm/s toward a switch while homing (the second touch: a quarter)
 # backoff_mm = 2.0           # off a switch once it fired
+
+# Stage controls (`stepchoir live --learn` writes them): one [[controls]] table a knob or pedal.
+# action: transpose_up, transpose_down, octave_up, octave_down, glide_time, vibrato_depth,
+# vibrato_rate, preset_next, preset_previous, setlist_next, setlist_previous, panic or mute_motor
+# (with motor = N); cc: its controller number (0-119); channel: 1-16, absent for any. For example,
+# a footswitch on CC 67 that steps to the next preset:
+# [[controls]]
+# action = "preset_next"
+# cc = 67
 )";
 }
 

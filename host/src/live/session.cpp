@@ -186,14 +186,15 @@ void LiveSession::engine_loop() {
 }
 
 // Called from: the engine thread, for each MIDI event. While a learn() waits, the first control
-// change 0-119 becomes its binding and goes no further. A control change a binding claims is its
+// change 0-119 with a value above 0 (a press or a knob's move, not a pedal's release) becomes its
+// binding and goes no further. A control change a binding claims is its
 // action's alone (act()). A program change that selects a preset reconfigures the allocator (a copy of about 2 KB, no allocation) and returns a silent entry for
 // every motor that sounded: the switch takes effect in this engine cycle. With presets, every
 // other program change is dropped (no drum kit switching); all else goes to Allocator::handle.
 // Writes at most Allocator::kMaxMotors entries to out; returns the count.
 size_t LiveSession::apply(const MidiEvent &ev, sc::PeriodEntry *out) {
   const bool controller = (ev.status & 0xF0) == kMidiControlChange && ev.data1 < kCcAllSoundOff;
-  if (learning_ && controller) {
+  if (learning_ && controller && ev.data2 > 0) {
     const Binding b{static_cast<int8_t>(ev.status & 0x0F), ev.data1, learning_->action, learning_->motor};
     learning_.reset();
     if (controls_.bind(b))

@@ -88,7 +88,9 @@ class LiveSession {
   bool perform(const StageAction &a);
   bool select_preset(size_t index);         // ignored for an index past the presets
   bool bind(const Binding &b);              // a learned controller (the rig file's [[controls]])
-  bool learn(Action a, uint8_t motor = 0);  // binds the next control change 0-119, any channel, to a
+  // Binds the next control change 0-119 with a value above 0 (a press, a knob's move; not the
+  // release of the control learned before), on any channel, to a.
+  bool learn(Action a, uint8_t motor = 0);
   // The binding the engine made for the latest learn(), once; nothing while it waits.
   std::optional<Binding> learned();
   // Setlist presses (kSetlistNext minus kSetlistPrevious) since the last call. Main thread.
