@@ -186,6 +186,22 @@ inline std::vector<Sounded> sounded_notes(const sc::trace::Trace &t) {
   return out;
 }
 
+// Reads t's notes (sounded_notes) and lists them as Catch messages, shown when a check fails.
+inline std::vector<Sounded> sounded_notes_logged(const sc::trace::Trace &t) {
+  std::vector<Sounded> out = sounded_notes(t);
+  for (const Sounded &n : out)
+    UNSCOPED_INFO("motor " << n.motor << ": " << n.pitch << " from " << n.start_s << " s to " << n.end_s << " s");
+  return out;
+}
+
+// The last note motor m sounded within half a semitone of pitch; nullptr when none.
+inline const Sounded *find_sounded(const std::vector<Sounded> &notes, size_t motor, int pitch) {
+  const Sounded *found = nullptr;
+  for (const Sounded &s : notes)
+    if (s.motor == motor && std::fabs(s.pitch - pitch) < 0.5) found = &s;
+  return found;
+}
+
 }  // namespace e2e
 
 #endif  // STEPCHOIR_TESTS_E2E_MORE_H

@@ -107,9 +107,7 @@ TEST_CASE("live: MIDI learn binds a pedal and a button, saves them, and they act
   REQUIRE(vb.stop() == 0);
 
   const tr::Trace t = tr::read_trace(trace_path);
-  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes(t);
-  for (const e2e::Sounded &n : sounded)
-    UNSCOPED_INFO("motor " << n.motor << ": " << n.pitch << " from " << n.start_s << " s to " << n.end_s << " s");
+  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes_logged(t);
   struct Expected {
     size_t motor;
     int pitch;
@@ -118,9 +116,7 @@ TEST_CASE("live: MIDI learn binds a pedal and a button, saves them, and they act
   REQUIRE(sounded.size() == 4);  // nothing else: the learning presses and the pedal played nothing
   for (size_t i = 0; i < 4; ++i) {
     INFO("note " << i << ": " << expected[i].pitch << " on motor " << expected[i].motor);
-    const e2e::Sounded *found = nullptr;
-    for (const e2e::Sounded &s : sounded)
-      if (s.motor == expected[i].motor && std::fabs(s.pitch - expected[i].pitch) < 0.5) found = &s;
+    const e2e::Sounded *found = e2e::find_sounded(sounded, expected[i].motor, expected[i].pitch);
     REQUIRE(found);
     const double cents = (found->pitch - expected[i].pitch) * 100.0;
     const double ms = (found->end_s - found->start_s) * 1e3, held_ms = (up_s[i] - down_s[i]) * 1e3;

@@ -91,9 +91,7 @@ TEST_CASE("live: a program change switches presets: the held note stops at once,
   CHECK(live.signal_and_wait(SIGTERM) == 0);
   REQUIRE(vb.stop() == 0);
   const tr::Trace t = tr::read_trace(trace_path);
-  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes(t);
-  for (const e2e::Sounded &n : sounded)
-    UNSCOPED_INFO("motor " << n.motor << ": " << n.pitch << " from " << n.start_s << " s to " << n.end_s << " s");
+  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes_logged(t);
 
   // Each expected note: its motor, the pitch it must sound (transposed in "split") and how long
   // its key was held (ms; the held A4: until the switch).
@@ -113,9 +111,7 @@ TEST_CASE("live: a program change switches presets: the held note stops at once,
   const e2e::Sounded *held = nullptr, *first_split = nullptr;
   double worst_cents = 0;
   for (const Expected &e : expected) {
-    const e2e::Sounded *found = nullptr;
-    for (const e2e::Sounded &s : sounded)
-      if (s.motor == e.motor && std::fabs(s.pitch - e.pitch) < 0.5) found = &s;
+    const e2e::Sounded *found = e2e::find_sounded(sounded, e.motor, e.pitch);
     INFO("note " << e.pitch << " on motor " << e.motor);
     REQUIRE(found);
     const double cents = (found->pitch - e.pitch) * 100.0, ms = (found->end_s - found->start_s) * 1e3;
