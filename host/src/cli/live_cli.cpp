@@ -22,6 +22,7 @@
 #include "board/board.h"
 #include "board/vboard_child.h"
 #include "cli/learn_prompt.h"
+#include "cli/setlist_runner.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "live/realtime_setup.h"
@@ -162,6 +163,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   }
   std::vector<std::unique_ptr<Board>> boards;
   std::vector<LiveBoard> pool;
+  std::vector<SetlistBoard> setlist_boards;
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
     const Caps caps = vboard ? boards.back()->hello() : boards.back()->greet();  // its own board does not reset
@@ -169,6 +171,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (settings) configure_motors(*boards.back(), caps, *settings, ports[b]);
     if (cfg.home_on_start) home_board(*boards.back(), caps, settings, ports[b], {}, say_line);
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
+    setlist_boards.push_back(SetlistBoard{ports[b], caps, settings});
   }
   AllocatorConfig alloc = pool_config(pool, policy);
   apply_allocation(cfg, &alloc);
@@ -190,9 +193,12 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (path.empty()) throw std::runtime_error("--learn: no rig file to save to (give --config FILE, or set HOME)");
     learn = std::make_unique<LearnPrompt>(path, alloc.motor_count);
   }
+  std::unique_ptr<SetlistRunner> setlist;
+  if (!cfg.setlist.empty()) setlist = std::make_unique<SetlistRunner>(cfg.setlist, setlist_boards, cfg.a4_hz);
   LiveSession session(pool, alloc);
   session.set_presets(std::move(presets));
   for (const Binding &b : controls) session.bind(b);
+  for (size_t b = 0; setlist && setlist->has_songs() && b < pool.size(); ++b) session.forward_replies(b);
   auto midi = std::make_unique<MidiIn>(api, midi_selector, session.midi_queue());
   session.start();
   const char *policy_names[] = {"poly", "channel", "mono"};
@@ -214,6 +220,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     if (tick % 10 == 0) watch_midi_input(midi, api, midi_selector, session, tty);
     if (learn) learn->poll(session);
+    if (setlist) setlist->poll(session);
     uint64_t errors = 0;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
@@ -248,6 +255,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     }
   }
   midi.reset();  // no more callbacks
+  if (setlist) setlist->stop(session);
   session.stop();
   if (tty && !o.quiet) std::printf("\n");
   std::printf("live: every motor silenced (%llu events, latency p50 %llu us, p99 %llu us, max %llu us)\n",

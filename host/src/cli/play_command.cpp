@@ -16,6 +16,7 @@
 #include "board/child_process.h"
 #include "board/link.h"
 #include "board/vboard_child.h"
+#include "cli/jam_link.h"
 #include "cli/play_report.h"
 #include "config/board_memory.h"
 #include "config/config.h"
@@ -97,31 +98,6 @@ int run_sibling(const std::string &vboard_path, const std::string &prog, std::ve
     return -1;
   }
 }
-
-// Jam: the song player's side of a board the live path drives. Frames go to the live writer
-// (which sends them when no live note waits), bytes come from the live reader.
-class JamLink : public Link {
- public:
-  JamLink(LiveSession &session, size_t board, std::string name) : session_(session), board_(board), name_(std::move(name)) {}
-  // Called from: the song player's thread. Waits (up to a second) while the writer's song
-  // queue is full.
-  bool write(const uint8_t *data, size_t len) override {
-    for (int i = 0; i < 1000; ++i) {
-      if (session_.send_song_frame(board_, data, len)) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-    return false;
-  }
-  long read(uint8_t *data, size_t len, int timeout_ms) override {
-    return session_.read_board_bytes(board_, data, len, timeout_ms);
-  }
-  std::string name() const override { return name_ + " (song)"; }
-
- private:
-  LiveSession &session_;
-  size_t board_;
-  std::string name_;
-};
 
 }  // namespace
 

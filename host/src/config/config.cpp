@@ -142,7 +142,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
   }
   known_keys(source, root,
              {"a4_hz", "home_on_start", "midi", "allocation", "vibrato", "velocity", "glide", "boards", "presets",
-              "controls"},
+              "controls", "setlist"},
              "the top level");
   LiveConfig c;
   c.a4_hz = get_number(source, root, "a4_hz", 200, 1000, kA4Hz);
@@ -190,6 +190,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
   }
   if (const toml::node *n = root.get("presets")) c.presets = read_presets(source, *n, c);
   if (const toml::node *n = root.get("controls")) c.controls = read_controls(source, *n);
+  if (const toml::node *n = root.get("setlist")) c.setlist = read_setlist(source, *n, c);
   return c;
 }
 
@@ -282,6 +283,22 @@ on = false
 #   lowest = 60
 #   motors = [2, 3]
 
+# Stage controls (`stepchoir live --learn` writes them): one [[controls]] table a knob or pedal.
+# action: transpose_up, transpose_down, octave_up, octave_down, glide_time, vibrato_depth,
+# vibrato_rate, preset_next, preset_previous, setlist_next, setlist_previous, panic or mute_motor
+# (with motor = N); cc: its controller number (0-119); channel: 1-16, absent for any. For example,
+# a footswitch on CC 67 that steps to the next preset:
+# [[controls]]
+# action = "preset_next"
+# cc = 67
+
+# The setlist `live` steps through (setlist_next, setlist_previous): each item a preset (by name),
+# a song file (relative to this file) played jam style on song_motors (default: the motors its
+# preset mutes) while the keyboard plays the others, or both; name, tempo and transpose optional.
+# [setlist]
+# items = [{ preset = "plain" }, { song = "ode.mid", preset = "split", tempo = 0.9 }]
+
+
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
 # uses the first board's port; with no board and no --port, live, play and jam start the virtual
 # board, and take the first board's motors for it (render always does).
@@ -322,15 +339,6 @@ on = false
 # max_speed = 40.0           # mm/s (the board steps at most 5,000 steps/s)
 # home_speed = 20.0          # mm/s toward a switch while homing (the second touch: a quarter)
 # backoff_mm = 2.0           # off a switch once it fired
-
-# Stage controls (`stepchoir live --learn` writes them): one [[controls]] table a knob or pedal.
-# action: transpose_up, transpose_down, octave_up, octave_down, glide_time, vibrato_depth,
-# vibrato_rate, preset_next, preset_previous, setlist_next, setlist_previous, panic or mute_motor
-# (with motor = N); cc: its controller number (0-119); channel: 1-16, absent for any. For example,
-# a footswitch on CC 67 that steps to the next preset:
-# [[controls]]
-# action = "preset_next"
-# cc = 67
 )";
 }
 

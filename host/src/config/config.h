@@ -65,6 +65,18 @@ struct ControlSettings {
   std::string where;  // "FILE:LINE:COLUMN" of its table, for a motor the pool lacks
 };
 
+// One item of the [setlist]: a preset, a song played jam style on some motors while the
+// keyboard plays the others, or both.
+struct SetlistItem {
+  std::string name;                  // for displays: its own, else the preset's, else the song file's
+  int preset = -1;                   // index into LiveConfig::presets; -1: the preset stays as it is
+  std::string song;                  // the song file ("" none); relative: from the rig file's directory
+  std::vector<uint8_t> song_motors;  // pool motors the song plays: its own, else its preset's mute_motors
+  double tempo = 1.0;                // tempo scale of the song
+  int transpose = 0;                 // semitones for the song
+  std::string where;                 // "FILE:LINE:COLUMN" of the item
+};
+
 struct LiveConfig {
   std::string midi_input = "virtual";
   std::string midi_api = "alsa";
@@ -79,6 +91,7 @@ struct LiveConfig {
   std::vector<BoardSettings> boards;
   std::vector<PresetSettings> presets;  // [[presets]], in file order: the first is active at start
   std::vector<ControlSettings> controls;  // [[controls]], in file order
+  std::vector<SetlistItem> setlist;       // [setlist] items, in order
 };
 
 // Hardware defaults for one motor: A4988 at 16 microsteps, switches active low, 3200 steps of

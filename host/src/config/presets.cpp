@@ -9,23 +9,6 @@ namespace stepchoir {
 namespace toml_read {
 namespace {
 
-// Called from: read_preset. A key holding an array of pool motor indexes (0-31), and where it is.
-std::vector<uint8_t> get_motors(const std::string &source, const toml::table &t, const char *key, std::string *at) {
-  std::vector<uint8_t> motors;
-  const toml::node *n = t.get(key);
-  if (!n) return motors;
-  const toml::array *a = n->as_array();
-  if (!a) fail(source, *n, std::string(key) + ": expected an array of motor indexes");
-  for (const toml::node &e : *a) {
-    const auto v = e.value<int64_t>();
-    if (!e.is_integer() || !v || *v < 0 || *v >= int64_t{AllocatorConfig::kMaxMotors})
-      fail(source, e, std::string(key) + ": motor indexes are 0 to 31 (motor 0 is the first board's first)");
-    motors.push_back(static_cast<uint8_t>(*v));
-  }
-  *at = where(source, *n);
-  return motors;
-}
-
 // Called from: read_preset for each [[presets.zones]] entry.
 ZoneSettings read_zone(const std::string &source, const toml::node &node) {
   const toml::table *t = node.as_table();

@@ -46,9 +46,17 @@ GlideConfig read_glide(const std::string &source, const toml::node &node, GlideC
 Policy get_policy(const std::string &source, const toml::table &t, Policy fallback);
 Priority get_priority(const std::string &source, const toml::table &t, Priority fallback);
 
+// A key holding an array of pool motor indexes (0-31), and where it is (*at); empty when absent.
+// Called from: the [[presets]] and [setlist] readers.
+std::vector<uint8_t> get_motors(const std::string &source, const toml::table &t, const char *key, std::string *at);
+
 // [[presets]] (config/presets.cpp): every preset table over the top level `top` already read.
 // Called from: parse_config.
 std::vector<PresetSettings> read_presets(const std::string &source, const toml::node &node, const LiveConfig &top);
+
+// [setlist] (config/setlist.cpp): its items, over the presets already read into top.
+// Called from: parse_config.
+std::vector<SetlistItem> read_setlist(const std::string &source, const toml::node &node, const LiveConfig &top);
 
 // [[controls]] (config/controls.cpp): every learned controller. Called from: parse_config.
 std::vector<ControlSettings> read_controls(const std::string &source, const toml::node &node);

@@ -139,6 +139,7 @@ void BoardLink::attach(Link *link) {
 }
 
 void BoardLink::post(const MotorUpdate &u) {
+  if (song_motors_.load(std::memory_order_acquire) >> u.motor & 1) return;  // the song's now
   if (try_send_now(u)) return;
   while (!updates_.try_enqueue(u)) std::this_thread::yield();
   ++enqueued_;
@@ -251,7 +252,12 @@ void BoardLink::writer_loop() {
       coalescer_.board_restarted();
     }
     if (Clock::now() - last_refresh >= std::chrono::milliseconds(refresh_ms_)) {
-      coalescer_.refresh(board_.motors.data(), board_.motors.size());
+      uint8_t live[sc::kMaxMotors];  // the board's live motors less those a song plays
+      size_t n = 0;
+      const uint8_t song = song_motors_.load(std::memory_order_acquire);
+      for (uint8_t m : board_.motors)
+        if (!(song >> m & 1) && n < sc::kMaxMotors) live[n++] = m;
+      coalescer_.refresh(live, n);
       last_refresh = Clock::now();
     }
     budget_.refill(monotonic_us());

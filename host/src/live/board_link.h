@@ -134,6 +134,9 @@ class BoardLink {
   // Called from: setup code, before start(): the reader keeps the board's bytes for
   // read_replies.
   void forward_replies() { forward_ = true; }
+  // Bit m: the board's motor m plays a song (live's setlist) and the live path leaves it alone:
+  // post() drops its updates and the writer's refresh skips it. Called from: the main thread.
+  void set_song_motors(uint8_t mask) noexcept { song_motors_.store(mask, std::memory_order_release); }
 
  private:
   bool attached() const noexcept;
@@ -167,6 +170,7 @@ class BoardLink {
   ReplyChunk partial_;                    // read_replies: a chunk taken but not all handed out
   size_t partial_pos_ = 0;
   bool forward_ = false;
+  std::atomic<uint8_t> song_motors_{0};
   friend class LinkOwnership;
 };
 

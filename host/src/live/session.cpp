@@ -96,33 +96,24 @@ long LiveSession::read_board_bytes(size_t b, uint8_t *out, size_t len, int timeo
   return boards_.at(b)->read_replies(out, len, timeout_ms);
 }
 
-bool LiveSession::perform(const StageAction &a) {
-  StageCommand c;
-  c.action = a;
-  return stage_queue_.try_enqueue(c);
+bool LiveSession::queue_stage(const StageCommand &c) {
+  if (!stage_queue_.try_enqueue(c)) return false;
+  ++stage_sent_;
+  return true;
 }
 
-bool LiveSession::select_preset(size_t index) {
-  StageCommand c;
-  c.kind = StageCommand::Kind::kPreset;
-  c.preset = index;
-  return stage_queue_.try_enqueue(c);
-}
+bool LiveSession::perform(const StageAction &a) { return queue_stage({StageCommand::Kind::kAction, a, {}, 0, 0}); }
 
-bool LiveSession::bind(const Binding &b) {
-  StageCommand c;
-  c.kind = StageCommand::Kind::kBind;
-  c.binding = b;
-  return stage_queue_.try_enqueue(c);
-}
+bool LiveSession::select_preset(size_t index) { return queue_stage({StageCommand::Kind::kPreset, {}, {}, index, 0}); }
+
+bool LiveSession::bind(const Binding &b) { return queue_stage({StageCommand::Kind::kBind, {}, b, 0, 0}); }
 
 bool LiveSession::learn(Action a, uint8_t motor) {
-  StageCommand c;
-  c.kind = StageCommand::Kind::kLearn;
-  c.action = StageAction{a, 127, motor};
   learned_.store(0, std::memory_order_relaxed);
-  return stage_queue_.try_enqueue(c);
+  return queue_stage({StageCommand::Kind::kLearn, StageAction{a, 127, motor}, {}, 0, 0});
 }
+
+bool LiveSession::set_song_pool(uint32_t motors) { return queue_stage({StageCommand::Kind::kSongPool, {}, {}, 0, motors}); }
 
 std::optional<Binding> LiveSession::learned() {
   const uint64_t v = learned_.exchange(0, std::memory_order_acquire);
@@ -161,6 +152,7 @@ void LiveSession::engine_loop() {
     while (stage_queue_.try_dequeue(command)) {
       RtScope rt;
       route(out, stage(command, out), 0);  // no key caused these: they stay out of the latency
+      stage_done_.fetch_add(1, std::memory_order_release);
     }
     if (got) {
       RtScope rt;
@@ -229,6 +221,10 @@ size_t LiveSession::stage(const StageCommand &c, sc::PeriodEntry *out) {
     case StageCommand::Kind::kPreset: return switch_preset(c.preset, out);
     case StageCommand::Kind::kBind: controls_.bind(c.binding); return 0;
     case StageCommand::Kind::kLearn: learning_ = c.action; return 0;
+    case StageCommand::Kind::kSongPool:
+      song_pool_ = c.motors;
+      allocator_.set_stage_mutes(stage_mutes_.load(std::memory_order_relaxed) | song_pool_);
+      return allocator_.flush(out, Allocator::kMaxMotors);
   }
   return 0;
 }
@@ -264,8 +260,8 @@ size_t LiveSession::act(const StageAction &a, sc::PeriodEntry *out) {
       return allocator_.panic(out, Allocator::kMaxMotors);
     case Action::kMuteMotor:
       if (a.motor >= motor_count_) return 0;
-      allocator_.set_stage_mutes(allocator_.stage_mutes() ^ (1u << a.motor));
-      stage_mutes_.store(allocator_.stage_mutes(), std::memory_order_relaxed);
+      stage_mutes_.store(stage_mutes_.load(std::memory_order_relaxed) ^ (1u << a.motor), std::memory_order_relaxed);
+      allocator_.set_stage_mutes(stage_mutes_.load(std::memory_order_relaxed) | song_pool_);
       break;
   }
   return allocator_.flush(out, Allocator::kMaxMotors);

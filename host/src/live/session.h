@@ -91,6 +91,11 @@ class LiveSession {
   // Binds the next control change 0-119 with a value above 0 (a press, a knob's move; not the
   // release of the control learned before), on any channel, to a.
   bool learn(Action a, uint8_t motor = 0);
+  // Live's setlist: bit m, pool motor m plays a song, so the keyboard leaves it (the allocator
+  // mutes it besides the performer's mutes); 0 when no song plays.
+  bool set_song_pool(uint32_t motors);
+  // True once the engine has applied every stage command queued so far. Main thread.
+  bool stage_settled() const noexcept { return stage_done_.load(std::memory_order_acquire) == stage_sent_; }
   // The binding the engine made for the latest learn(), once; nothing while it waits.
   std::optional<Binding> learned();
   // Setlist presses (kSetlistNext minus kSetlistPrevious) since the last call. Main thread.
@@ -128,6 +133,9 @@ class LiveSession {
   bool send_song_frame(size_t b, const uint8_t *wire, size_t n);
   long read_board_bytes(size_t b, uint8_t *out, size_t len, int timeout_ms);
   void forward_replies(size_t b) { boards_.at(b)->forward_replies(); }
+  // Live's setlist: bit m, board b's motor m plays a song; the live path leaves it alone
+  // (BoardLink::set_song_motors). Called from: the main thread.
+  void set_song_motors(size_t b, uint8_t mask) { boards_.at(b)->set_song_motors(mask); }
 
   // Per pool motor: the MIDI note it plays (played note, after folding), or -1 when silent.
   // Called from: any thread.
@@ -150,10 +158,11 @@ class LiveSession {
  private:
   // What the main thread asks of the engine (the stage queue's element).
   struct StageCommand {
-    enum class Kind : uint8_t { kAction, kPreset, kBind, kLearn } kind = Kind::kAction;
+    enum class Kind : uint8_t { kAction, kPreset, kBind, kLearn, kSongPool } kind = Kind::kAction;
     StageAction action;  // kAction; kLearn: the action and motor to bind
     Binding binding;     // kBind
     size_t preset = 0;   // kPreset
+    uint32_t motors = 0; // kSongPool
   };
   static constexpr size_t kStageCommands = 256;
   // How long the engine waits for MIDI before it looks at the stage queue and its stop flag, us.
@@ -186,8 +195,12 @@ class LiveSession {
   std::atomic<uint64_t> learned_{0};      // kLearnedValid | channel+1 << 24 | cc << 16 | action << 8 | motor
   static constexpr uint64_t kLearnedValid = uint64_t{1} << 40;
   std::atomic<int> setlist_steps_{0}, stage_transpose_{0};
-  std::atomic<uint32_t> stage_mutes_{0};
+  std::atomic<uint32_t> stage_mutes_{0};  // the performer's mutes (mute_motor)
+  uint32_t song_pool_ = 0;                  // the engine thread's: motors a setlist song plays
   std::atomic<uint64_t> panics_{0};
+  std::atomic<uint64_t> stage_done_{0};  // stage commands the engine applied
+  uint64_t stage_sent_ = 0;              // stage commands the main thread queued (its own)
+  bool queue_stage(const StageCommand &c);  // main thread
   std::atomic<uint64_t> events_{0};
   std::atomic<bool> stop_engine_{false};
   std::thread engine_;

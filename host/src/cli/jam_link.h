@@ -1,0 +1,42 @@
+// jam_link.h: the song player's side of a board the live path drives (`stepchoir jam`, live's
+// setlist): frames go to the board's live writer, which sends them when no live note waits;
+// bytes come from its live reader (LiveSession::forward_replies must have been called).
+#ifndef STEPCHOIR_HOST_CLI_JAM_LINK_H
+#define STEPCHOIR_HOST_CLI_JAM_LINK_H
+
+#include <chrono>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include "board/link.h"
+#include "live/session.h"
+
+namespace stepchoir {
+
+class JamLink : public Link {
+ public:
+  JamLink(LiveSession &session, size_t board, std::string name) : session_(session), board_(board), name_(std::move(name)) {}
+  // Called from: the song player's thread. Waits (up to a second) while the writer's song
+  // queue is full.
+  bool write(const uint8_t *data, size_t len) override {
+    for (int i = 0; i < 1000; ++i) {
+      if (session_.send_song_frame(board_, data, len)) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return false;
+  }
+  long read(uint8_t *data, size_t len, int timeout_ms) override {
+    return session_.read_board_bytes(board_, data, len, timeout_ms);
+  }
+  std::string name() const override { return name_ + " (song)"; }
+
+ private:
+  LiveSession &session_;
+  size_t board_;
+  std::string name_;
+};
+
+}  // namespace stepchoir
+
+#endif  // STEPCHOIR_HOST_CLI_JAM_LINK_H

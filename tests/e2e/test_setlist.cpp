@@ -1,0 +1,112 @@
+// test_setlist.cpp: live's setlist end to end, a JACK keyboard and `stepchoir live` on the real
+// firmware on an Uno virtual board. Item 1 plays a song jam style on motors 0 and 1 (its preset
+// mutes them for the keyboard) while keys play on motors 2 and 3; a learned pedal (CC 20) steps
+// to item 2, a plain preset; again to item 3, the song on motors 2 and 3, and CC 21 steps back
+// from it mid-song. Read from the trace: the song on time and in tune, the keys on the other
+// motors, and nothing of the stopped song after the step back.
+#include <catch2/catch.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis.h"
+#include "board/child_process.h"
+#include "e2e_more.h"
+#include "e2e_util.h"
+#include "jack_rig.h"
+#include "play_checks.h"
+#include "trace.h"
+#include "vboard_process.h"
+
+namespace tr = sc::trace;
+using namespace play_checks;
+
+namespace {
+
+void wait_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
+
+}  // namespace
+
+TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a song stepped away from",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string song = write_test_song("setlist.mid");
+  const std::string trace_path = e2e::scratch("setlist.csv"), config_path = e2e::scratch("setlist.toml");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n\n"
+                             << "[[presets]]\nprogram = 1\nname = \"plain\"\n\n"
+                             << "[[presets]]\nprogram = 2\nname = \"duet\"\nmute_motors = [0, 1]\n\n"
+                             << "[[controls]]\naction = \"setlist_next\"\ncc = 20\n\n"
+                             << "[[controls]]\naction = \"setlist_previous\"\ncc = 21\n\n"
+                             << "[setlist]\nitems = [\n  { song = \"" << song << "\", preset = \"duet\" },\n"
+                             << "  { preset = \"plain\" },\n  { song = \"" << song << "\", song_motors = [2, 3], name = \"encore\" },\n]\n\n"
+                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
+  auto press = [&](uint8_t cc) {
+    const double at = keys.send(stepchoir::control_change(0, cc, 127));
+    wait_ms(50);
+    keys.send(stepchoir::control_change(0, cc, 0));
+    return at;
+  };
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  std::string said;
+  const std::string first = wait_for_line(live, "live: setlist 1/3", &said);
+  INFO("stepchoir live said:\n" << said);
+  REQUIRE(first == "live: setlist 1/3 duet: the song on motors 0,1");
+  wait_ms(300);  // JACK takes the new connection
+  using Key = Sender::Key;
+  const std::vector<Key> during = {{1.7, 2.3, 62}, {2.0, 2.6, 65}};  // while the song plays
+  keys.play(during);
+  REQUIRE(wait_for_line(live, "live: setlist 1/3 duet: the song ended", &said) != "");
+  press(20);
+  REQUIRE(wait_for_line(live, "live: setlist 2/3", &said) == "live: setlist 2/3 plain");
+  wait_ms(200);
+  keys.play({{0.0, 0.4, 60}});  // plain: motor 0
+  wait_ms(200);
+  press(20);
+  REQUIRE(wait_for_line(live, "live: setlist 3/3", &said) == "live: setlist 3/3 encore: the song on motors 2,3");
+  const double encore_s = Sender::now_s();
+  wait_ms(2500);  // its clock synced, a few notes in
+  const double back_s = press(21);
+  REQUIRE(wait_for_line(live, "live: setlist 2/3", &said) == "live: setlist 2/3 plain");
+  wait_ms(500);
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace t = tr::read_trace(trace_path);
+  const std::vector<e2e::Sounded> sounded = e2e::sounded_notes_logged(t);
+  // The song: its plan on motors 0 and 1, as `stepchoir play` makes it for two motors.
+  const Plan plan = plan_for(song, 2);
+  check_song("setlist, the song on motors 0 and 1", t, plan, 0, true);
+  // The keys during the song, on motors 2 and 3; the key after it, on motor 0.
+  for (const Key &k : during) {
+    INFO("key " << int{k.note});
+    const e2e::Sounded *on2 = e2e::find_sounded(sounded, 2, k.note), *on3 = e2e::find_sounded(sounded, 3, k.note);
+    REQUIRE((on2 || on3));
+    const e2e::Sounded &s = on2 ? *on2 : *on3;
+    CHECK(std::fabs(s.pitch - k.note) * 100 < 1.0);
+    CHECK((s.end_s - s.start_s) == Approx(k.off_s - k.on_s).margin(0.03));
+  }
+  const e2e::Sounded *plain = e2e::find_sounded(sounded, 0, 60);
+  REQUIRE(plain);
+  CHECK(std::fabs(plain->pitch - 60) * 100 < 1.0);
+  // The encore sounded on motors 2 and 3 and stopped at the step back: no step after it but the
+  // JACK period (21 ms), live's loop noticing the step (every 100 ms) and the players' stop.
+  REQUIRE(t.has_wall_start);
+  size_t encore_steps = 0;
+  double last_s = 0;
+  for (size_t m : {2, 3})
+    for (const auto &st : t.motor[m].steps) {
+      const double wall = t.wall_seconds(t.real_seconds(st.rise_cycle));
+      if (wall > encore_s) ++encore_steps;
+      last_s = std::max(last_s, wall);
+    }
+  std::printf("setlist: the encore's last step %.1f ms after the step back\n", (last_s - back_s) * 1e3);
+  CHECK(encore_steps > 0);
+  CHECK(last_s - back_s < 0.2);
+}
