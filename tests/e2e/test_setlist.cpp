@@ -96,7 +96,8 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
   REQUIRE(plain);
   CHECK(std::fabs(plain->pitch - 60) * 100 < 1.0);
   // The encore sounded on motors 2 and 3 and stopped at the step back: no step after it but the
-  // JACK period (21 ms), live's loop noticing the step (every 100 ms) and the players' stop.
+  // JACK period (21 ms), live's loop noticing the step (every 100 ms) and what the player had
+  // already queued on the board (its lead, 300 ms), which plays out.
   REQUIRE(t.has_wall_start);
   size_t encore_steps = 0;
   double last_s = 0;
@@ -108,5 +109,5 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
     }
   std::printf("setlist: the encore's last step %.1f ms after the step back\n", (last_s - back_s) * 1e3);
   CHECK(encore_steps > 0);
-  CHECK(last_s - back_s < 0.2);
+  CHECK(last_s - back_s < 0.5);
 }
