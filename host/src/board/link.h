@@ -25,6 +25,11 @@ class Link {
   virtual long read(uint8_t *data, size_t len, int timeout_ms) = 0;
   // What was opened, for messages.
   virtual std::string name() const = 0;
+  // For a link whose write() only queues the bytes (jam's JamLink: the live writer sends them
+  // later): waits until the last write() reached the OS and returns when it did (monotonic_us);
+  // 0 when write() itself hands the bytes to the OS (every port) or it did not happen in time.
+  // Called from: the song player, after a clock request's write (its true send time).
+  virtual uint64_t written_at_us() { return 0; }
 };
 
 // Opens a board at `path` at the protocol's baud rate, raw 8N1. Pseudo-terminals (and links

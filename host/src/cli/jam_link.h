@@ -30,6 +30,8 @@ class JamLink : public Link {
     return session_.read_board_bytes(board_, data, len, timeout_ms);
   }
   std::string name() const override { return name_ + " (song)"; }
+  // The writer sends a queued frame within its 1 ms idle wait, or when the budget has room.
+  uint64_t written_at_us() override { return session_.song_frame_written_us(board_, 50); }
 
  private:
   LiveSession &session_;

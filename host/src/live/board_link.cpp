@@ -212,7 +212,8 @@ void BoardLink::writer_loop() {
   for (;;) {
     RtScope rt;
     const bool stopping = stop_writer_.load(std::memory_order_acquire);
-    // Sleep until an update comes, or until the budget allows what is pending, or 10 ms.
+    // Sleep until an update comes, or until the budget allows what is pending, or 10 ms (1 ms
+    // when a song player shares the link: its frames do not wake the writer).
     uint64_t wait_us;
     {
       LinkOwnership own(*this);
@@ -220,6 +221,7 @@ void BoardLink::writer_loop() {
       wait_us = stopping               ? 0
                 : coalescer_.pending() ? std::max<uint64_t>(budget_.wait_us(), 1)
                 : song_.peek()         ? 500  // song frames wait for budget to spare
+                : forward_             ? 1000  // a song player may queue a frame any moment (jam)
                                        : 10000;
     }
     MotorUpdate u;
@@ -271,6 +273,8 @@ void BoardLink::writer_loop() {
     for (WireFrame *f = song_.peek();
          f && !coalescer_.pending() && budget_.credit_bytes() >= LinkBudget::kBurstBytes / 2 + f->len; f = song_.peek()) {
       if (!send_wire(link, f->bytes, f->len, false)) break;
+      song_written_us_.store(monotonic_us(), std::memory_order_relaxed);
+      song_written_.fetch_add(1, std::memory_order_release);
       song_.pop();
       last_write = Clock::now();
     }
@@ -301,7 +305,18 @@ bool BoardLink::queue_song_frame(const uint8_t *wire, size_t n) {
   WireFrame f;
   f.len = static_cast<uint8_t>(n);
   std::copy(wire, wire + n, f.bytes);
-  return song_.try_enqueue(f);
+  if (!song_.try_enqueue(f)) return false;
+  ++song_queued_;
+  return true;
+}
+
+uint64_t BoardLink::song_frame_written_us(int timeout_ms) {
+  const uint64_t until = monotonic_us() + static_cast<uint64_t>(timeout_ms) * 1000;
+  while (song_written_.load(std::memory_order_acquire) < song_queued_) {
+    if (monotonic_us() >= until) return 0;
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  return song_written_us_.load(std::memory_order_relaxed);
 }
 
 long BoardLink::read_replies(uint8_t *out, size_t len, int timeout_ms) {

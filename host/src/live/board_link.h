@@ -130,6 +130,9 @@ class BoardLink {
 
   // Jam (see LiveSession::send_song_frame). Called from: the song player's thread.
   bool queue_song_frame(const uint8_t *wire, size_t n);
+  // When the writer handed the last queued song frame to the OS (monotonic_us), once it has,
+  // waiting up to timeout_ms; 0 on timeout.
+  uint64_t song_frame_written_us(int timeout_ms);
   long read_replies(uint8_t *out, size_t len, int timeout_ms);
   // Called from: setup code, before start(): the reader keeps the board's bytes for
   // read_replies.
@@ -171,6 +174,9 @@ class BoardLink {
   size_t partial_pos_ = 0;
   bool forward_ = false;
   std::atomic<uint8_t> song_motors_{0};
+  uint64_t song_queued_ = 0;                 // song frames queued (the song player's thread)
+  std::atomic<uint64_t> song_written_{0};    // song frames the writer handed to the OS
+  std::atomic<uint64_t> song_written_us_{0}; // when it handed over the last one
   friend class LinkOwnership;
 };
 

@@ -132,6 +132,9 @@ class LiveSession {
   // the reader keep the bytes for it. Called from: the song player's thread (one per board).
   bool send_song_frame(size_t b, const uint8_t *wire, size_t n);
   long read_board_bytes(size_t b, uint8_t *out, size_t len, int timeout_ms);
+  // When board b's writer handed the last song frame queued to the OS (BoardLink), 0 when it
+  // did not within timeout_ms. Called from: the song player's thread.
+  uint64_t song_frame_written_us(size_t b, int timeout_ms) { return boards_.at(b)->song_frame_written_us(timeout_ms); }
   void forward_replies(size_t b) { boards_.at(b)->forward_replies(); }
   // Live's setlist: bit m, board b's motor m plays a song; the live path leaves it alone
   // (BoardLink::set_song_motors). Called from: the main thread.

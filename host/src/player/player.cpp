@@ -77,7 +77,8 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
 }
 
 // Called from: everything that writes. One frame; counts it against the link budget (waiting
-// for it when the budget is spent). sent_us, when given, gets the time just before the write.
+// for it when the budget is spent). sent_us, when given, gets the time just before the write, or
+// when a link that queues (jam) handed the frame to the OS.
 // False when the link failed.
 bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us) {
   const std::vector<uint8_t> wire = frame(payload);
@@ -97,6 +98,9 @@ bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us
     return false;
   }
   budget_.spend(wire.size());
+  if (sent_us) {  // a link that queues (jam) knows when the frame truly left
+    if (const uint64_t written = board_->link().written_at_us()) *sent_us = written;
+  }
   // The line to the board is busy with this frame's bits, after whatever it still carried,
   // and the bridge may hold the last of them for a USB frame.
   const double now = static_cast<double>(monotonic_us());
