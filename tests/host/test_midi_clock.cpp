@@ -75,6 +75,25 @@ TEST_CASE("midi clock: a tempo change is followed within one beat", "[clock]") {
   CHECK(f.host_us_at(beat_at_change + 2) == Approx(t + 60e6 / 140).margin(1000));
 }
 
+TEST_CASE("midi clock: a tempo change is seen within a few ticks, in time for the next beat's note", "[clock]") {
+  for (unsigned seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+    std::mt19937 rng(seed);
+    ClockFollower f;
+    f.take({kMidiClockStart, 0, 0});
+    double t = send_ticks(f, 1e9, 110, 8, 1000, rng);
+    const double beat_at_change = f.beat_at(t);
+    // A third of a beat at 140 bpm (8 ticks): the player sends the next beat's note now, 0.29 s
+    // ahead (jam's lead is 0.3 s).
+    const double next_beat_us = t + 60e6 / 140;
+    send_ticks(f, t, 140, 1.0 / 3, 1000, rng);
+    INFO("seed " << seed);
+    CHECK(f.host_us_at(beat_at_change + 1) == Approx(next_beat_us).margin(2000));  // the 2 ms target
+    // Jitter alone never looks like a change: the grid stays on a minute of a steady clock.
+    t = send_ticks(f, t + 8 * 60e6 / 140 / 24, 140, 128, 1000, rng);
+    CHECK(f.us_per_beat() == Approx(60e6 / 140).epsilon(0.003));
+  }
+}
+
 TEST_CASE("midi clock: stop, continue from the song position, start from the top", "[clock]") {
   std::mt19937 rng(7);
   ClockFollower f;

@@ -32,6 +32,7 @@ void ClockFollower::take(const ClockMessage &m) {
         if (whole >= 2 && whole <= kMaxLostRun) pending_lost_ = whole - 1;
       }
       last_us_ = us;
+      note_change(us);
       ring_[next_ % kWindow] = {ticks_, us};
       ++next_;
       ++ticks_;
@@ -60,6 +61,29 @@ void ClockFollower::take(const ClockMessage &m) {
     default:
       break;
   }
+}
+
+// Called from: take, for a tick about to join the fit (us: when it came). A tick more than
+// kChangeUs off the line, after another off it the same way, is a tempo change (the clock's
+// jitter, a millisecond or two, never goes that far twice in a row): the fit forgets the ticks
+// before the change and keeps the last one on the old line, so the new tempo takes over within
+// a few ticks rather than a beat.
+void ClockFollower::note_change(double us) {
+  if (count_ < kWindow / 2) {
+    change_run_ = 0;
+    return;
+  }
+  const double residual = us - (intercept_ + slope_ * static_cast<double>(ticks_));
+  const int sign = residual > 0 ? 1 : -1;
+  if (std::fabs(residual) <= kChangeUs || (change_run_ > 0 && sign != change_sign_)) {
+    change_run_ = std::fabs(residual) > kChangeUs ? 1 : 0;
+    change_sign_ = sign;
+    return;
+  }
+  change_sign_ = sign;
+  if (++change_run_ < 2) return;
+  count_ = std::min(count_, change_run_);  // the run's earlier ticks and the last tick before it
+  change_run_ = 0;
 }
 
 // Least squares through the ring's ticks: t = intercept_ + slope_ * n.

@@ -4,8 +4,9 @@
 //
 // ClockFollower is the pure part: it takes clock messages with their host times and fits a
 // line through the last kWindow ticks (least squares: a DAW's clock jitters by a millisecond or
-// so, the line by a fraction of that), so a beat's host time is known ahead, and a tempo change
-// is followed within one beat. Ticks count while the clock is stopped too (DAWs send them), so
+// so, the line by a fraction of that), so a beat's host time is known ahead; a tempo change
+// (two ticks in a row far off the line) restarts the fit from the change, so the new tempo is
+// followed within a few ticks. Ticks count while the clock is stopped too (DAWs send them), so
 // the grid is known before Start: the tick after Start is beat 0, the tick after Continue the
 // song position's.
 //
@@ -31,6 +32,7 @@ class ClockFollower {
   static constexpr int kTicksPerBeat = 24;
   static constexpr size_t kWindow = 24;  // ticks the line is fitted through: one beat
   static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
+  static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
 
   // Takes one message (kMidiClock*), in arrival order.
   void take(const ClockMessage &m);
@@ -52,6 +54,7 @@ class ClockFollower {
 
  private:
   void fit();
+  void note_change(double us);
   struct Tick {
     int64_t n = 0;   // its number on the grid
     double us = 0;   // when it came
@@ -63,6 +66,8 @@ class ClockFollower {
   double last_us_ = 0;       // when the last tick came
   int64_t pending_lost_ = 0; // ticks the last tick's long gap stands for, if the next comes a period on
   size_t count_ = 0;         // ticks in the ring
+  size_t change_run_ = 0;    // ticks in a row more than kChangeUs off the line, one way
+  int change_sign_ = 0;      // that way: +1 late, -1 early
   double intercept_ = 0, slope_ = 0;  // host us of tick n: intercept_ + slope_ * n
   int64_t zero_tick_ = 0;    // the tick that is the song's beat 0 (after Start), or its position
   bool running_ = false;
