@@ -78,26 +78,23 @@ MotorSettings read_motor(const std::string &source, const toml::table &t, uint8_
   m.hardware.pulse_us = static_cast<uint8_t>(get_int(source, t, "pulse_us", 2, 10, m.hardware.pulse_us));
   m.power = read_power(source, t, index, m.hardware.driver);
   m.motion = read_motion(source, t, m.hardware.microsteps);
-  m.music.lowest_note = static_cast<uint8_t>(get_int(source, t, "lowest_note", 0, 127, m.music.lowest_note));
-  m.music.highest_note = static_cast<uint8_t>(get_int(source, t, "highest_note", 0, 127, m.music.highest_note));
-  if (m.music.lowest_note > m.music.highest_note)
+  m.music = read_music(source, t).over(MotorConfig{});
+  if (m.music.lowest_note > m.music.highest_note)  // one key set, against the other's default
     fail(source, t, "lowest_note must not be above highest_note");
-  m.music.transpose = static_cast<int8_t>(get_int(source, t, "transpose", -48, 48, 0));
-  m.music.tuning_cents = get_number(source, t, "tuning_cents", -1200, 1200, 0);
   m.mono_channel = static_cast<int8_t>(get_int(source, t, "mono_channel", 1, 16, 1) - 1);
-  if (const toml::node *n = t.get("muted")) {
-    const toml::array *a = n->as_array();
-    if (!a) fail(source, *n, "muted: expected an array of MIDI notes");
-    for (const toml::node &e : *a) {
-      const auto v = e.value<int64_t>();
-      if (!e.is_integer() || !v || *v < 0 || *v > 127) fail(source, e, "muted: MIDI notes are 0 to 127");
-      m.music.muted.set(static_cast<size_t>(*v));
-    }
-  }
   return m;
 }
 
 }  // namespace
+
+MotorConfig MusicSettings::over(MotorConfig base) const {
+  if (lowest_note) base.lowest_note = *lowest_note;
+  if (highest_note) base.highest_note = *highest_note;
+  if (transpose) base.transpose = *transpose;
+  if (tuning_cents) base.tuning_cents = *tuning_cents;
+  if (muted) base.muted = *muted;
+  return base;
+}
 
 sc::ConfigBody default_motor_hardware(uint8_t motor) {
   sc::ConfigBody c{};
@@ -264,8 +261,11 @@ on = false
 # value above. Zones (policy poly): [[presets.zones]] with lowest / highest key (MIDI notes),
 # channel (1-16, absent: any) and motors (indexes, motor 0 is the first board's first): a note
 # plays only on the motors of the zones it falls in, once in each (a layer); with zones, a note
-# in none is not played. A program change silences every note; held keys sound again only when
-# struck again. For example, a plain preset on program 1 and a split on program 2:
+# in none is not played. One motor's music: [[presets.motors]] with motor (its index) and any of
+# lowest_note, highest_note, transpose, tuning_cents and muted, as in [[boards.motors]] below
+# (muted: the whole list); what it leaves out keeps that motor's own. A program change silences
+# every note; held keys sound again only when struck again. For example, a plain preset on
+# program 1 and a split on program 2 whose motor 0 plays the bass within E2-E4:
 #   [[presets]]
 #   program = 1
 #   name = "plain"
@@ -282,6 +282,10 @@ on = false
 #   [[presets.zones]]
 #   lowest = 60
 #   motors = [2, 3]
+#   [[presets.motors]]
+#   motor = 0
+#   lowest_note = 40
+#   highest_note = 64
 
 # Stage controls (`stepchoir live --learn` writes them): one [[controls]] table a knob or pedal.
 # action: transpose_up, transpose_down, octave_up, octave_down, glide_time, vibrato_depth,

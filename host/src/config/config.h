@@ -6,6 +6,7 @@
 #ifndef STEPCHOIR_HOST_CONFIG_H
 #define STEPCHOIR_HOST_CONFIG_H
 
+#include <bitset>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +18,18 @@
 #include "stepchoir_protocol.h"
 
 namespace stepchoir {
+
+// A motor's musical keys as one table of the file sets them ([[boards.motors]], [[presets.motors]]):
+// each key left out is empty.
+struct MusicSettings {
+  std::optional<uint8_t> lowest_note, highest_note;  // playable range, MIDI notes, inclusive
+  std::optional<int8_t> transpose;                   // semitones added to every note, -48..48
+  std::optional<double> tuning_cents;                // added to every note's pitch, -1200..1200
+  std::optional<std::bitset<128>> muted;             // MIDI notes the motor must not play (the whole set)
+
+  // `base` with what this sets in its place. Called from: the config loader, preset_config.
+  MotorConfig over(MotorConfig base) const;
+};
 
 // One motor as the file describes it: the board's driver settings (sent as a config frame)
 // and its musical settings (for the allocator; f_cpu_hz comes from the board's hello).
@@ -41,6 +54,13 @@ struct ZoneSettings {
   std::string where;                  // "FILE:LINE:COLUMN" of its motors, for a motor the pool lacks
 };
 
+// One [[presets.motors]] entry: a pool motor's musical settings while its preset is active.
+struct PresetMotorSettings {
+  uint8_t motor = 0;    // pool index (0: the first board's first motor)
+  MusicSettings music;  // what it leaves out keeps the motor's own (its [[boards.motors]] entry's)
+  std::string where;    // "FILE:LINE:COLUMN" of its motor key, for a motor the pool lacks or a bad range
+};
+
 // One [[presets]] table. What it does not set keeps the file's top-level value.
 struct PresetSettings {
   uint8_t program = 1;            // 1-128, as keyboards show it (the wire's 0-127 plus 1)
@@ -57,6 +77,7 @@ struct PresetSettings {
   std::vector<uint8_t> mute_motors;  // pool motor indexes silent in this preset
   std::string mute_where;            // "FILE:LINE:COLUMN" of mute_motors
   std::vector<ZoneSettings> zones;
+  std::vector<PresetMotorSettings> motors;  // [[presets.motors]], at most one a motor
 };
 
 // One [[controls]] table: a learned controller (`stepchoir live --learn` writes them).
@@ -115,8 +136,9 @@ LiveConfig parse_config(const std::string &text, const std::string &source);
 const char *default_config_text();
 
 // The allocator configuration of preset p over `base` (the top level's, with the pool's motors):
-// what p sets replaces base's. Throws std::runtime_error "FILE:LINE:COLUMN: ..." for a motor
-// index the pool lacks or zones under a policy other than poly.
+// what p sets replaces base's; a [[presets.motors]] entry replaces only the keys it sets of that
+// motor's own. Throws std::runtime_error "FILE:LINE:COLUMN: ..." for a motor index the pool lacks,
+// a motor's lowest_note above its highest_note, or zones under a policy other than poly.
 // Called from: live_presets; tests.
 AllocatorConfig preset_config(const AllocatorConfig &base, const PresetSettings &p);
 

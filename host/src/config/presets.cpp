@@ -24,13 +24,29 @@ ZoneSettings read_zone(const std::string &source, const toml::node &node) {
   return z;
 }
 
+// Called from: read_preset for each [[presets.motors]] entry: a pool motor and the musical keys
+// of [[boards.motors]] (toml_read::read_music), each over the motor's own once the pool is known.
+PresetMotorSettings read_preset_motor(const std::string &source, const toml::node &node) {
+  const toml::table *t = node.as_table();
+  if (!t) fail(source, node, "motors: expected [[presets.motors]] tables");
+  known_keys(source, *t, {"motor", "lowest_note", "highest_note", "transpose", "tuning_cents", "muted"},
+             "[[presets.motors]]");
+  const toml::node *motor = t->get("motor");
+  if (!motor) fail(source, node, "a preset's motor entry needs motor = its index (0: the first board's first)");
+  PresetMotorSettings pm;
+  pm.motor = static_cast<uint8_t>(get_int(source, *t, "motor", 0, AllocatorConfig::kMaxMotors - 1, 0));
+  pm.where = where(source, *motor);
+  pm.music = read_music(source, *t);
+  return pm;
+}
+
 // Called from: read_presets for each [[presets]] table; `top`: the file's top level.
 PresetSettings read_preset(const std::string &source, const toml::node &node, const LiveConfig &top) {
   const toml::table *t = node.as_table();
   if (!t) fail(source, node, "presets: expected [[presets]] tables");
   known_keys(source, *t,
              {"program", "name", "bank", "policy", "priority", "transpose", "bend_range", "vibrato", "velocity", "glide",
-              "mute_motors", "zones"},
+              "mute_motors", "zones", "motors"},
              "[[presets]]");
   PresetSettings p;
   p.where = where(source, node);
@@ -57,6 +73,18 @@ PresetSettings read_preset(const std::string &source, const toml::node &node, co
       p.zones.push_back(read_zone(source, z));
     }
     if (p.policy.value_or(top.policy) != Policy::kPoly) fail(source, *n, "zones need policy = \"poly\"");
+  }
+  if (const toml::node *n = t->get("motors")) {
+    const toml::array *motors = n->as_array();
+    if (!motors) fail(source, *n, "motors: expected [[presets.motors]] tables");
+    for (const toml::node &m : *motors) {
+      PresetMotorSettings pm = read_preset_motor(source, m);
+      for (const PresetMotorSettings &q : p.motors)
+        if (q.motor == pm.motor)
+          fail(source, *m.as_table()->get("motor"),
+               "motor " + std::to_string(pm.motor) + ": this preset sets it already (" + q.where + ")");
+      p.motors.push_back(std::move(pm));
+    }
   }
   return p;
 }
@@ -113,6 +141,15 @@ AllocatorConfig preset_config(const AllocatorConfig &base, const PresetSettings 
   for (size_t z = 0; z < p.zones.size() && z < AllocatorConfig::kMaxZones; ++z) {
     const ZoneSettings &zs = p.zones[z];
     c.zones[z] = Zone{zs.lowest, zs.highest, zs.channel, motor_bits(zs.motors, base, zs.where, "motors")};
+  }
+  for (const PresetMotorSettings &pm : p.motors) {
+    motor_bits({pm.motor}, base, pm.where, "motor");
+    const MotorConfig mc = pm.music.over(base.motors[pm.motor]);
+    if (mc.lowest_note > mc.highest_note)
+      throw std::runtime_error(pm.where + ": motor " + std::to_string(pm.motor) + ": lowest_note " +
+                               std::to_string(mc.lowest_note) + " is above highest_note " +
+                               std::to_string(mc.highest_note) + " (a key the entry leaves out is the motor's own)");
+    c.motors[pm.motor] = mc;
   }
   if (const char *why = Allocator::validate(c))
     throw std::runtime_error(p.where + ": preset '" + p.name + "': " + why);

@@ -101,6 +101,27 @@ GlideConfig read_glide(const std::string &source, const toml::node &node, GlideC
   return g;
 }
 
+MusicSettings read_music(const std::string &source, const toml::table &t) {
+  MusicSettings s;
+  if (t.get("lowest_note")) s.lowest_note = static_cast<uint8_t>(get_int(source, t, "lowest_note", 0, 127, 0));
+  if (t.get("highest_note")) s.highest_note = static_cast<uint8_t>(get_int(source, t, "highest_note", 0, 127, 0));
+  if (s.lowest_note && s.highest_note && *s.lowest_note > *s.highest_note)
+    fail(source, t, "lowest_note must not be above highest_note");
+  if (t.get("transpose")) s.transpose = static_cast<int8_t>(get_int(source, t, "transpose", -48, 48, 0));
+  if (t.get("tuning_cents")) s.tuning_cents = get_number(source, t, "tuning_cents", -1200, 1200, 0);
+  if (const toml::node *n = t.get("muted")) {
+    const toml::array *a = n->as_array();
+    if (!a) fail(source, *n, "muted: expected an array of MIDI notes");
+    s.muted.emplace();
+    for (const toml::node &e : *a) {
+      const auto v = e.value<int64_t>();
+      if (!e.is_integer() || !v || *v < 0 || *v > 127) fail(source, e, "muted: MIDI notes are 0 to 127");
+      s.muted->set(static_cast<size_t>(*v));
+    }
+  }
+  return s;
+}
+
 Policy get_policy(const std::string &source, const toml::table &t, Policy fallback) {
   const toml::node *n = t.get("policy");
   if (!n) return fallback;

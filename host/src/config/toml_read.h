@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <initializer_list>
 #include <string>
-
 #include <vector>
 
 #include "config/config.h"
@@ -42,6 +41,11 @@ VibratoConfig read_vibrato(const std::string &source, const toml::node &node, Vi
 VelocityConfig read_velocity(const std::string &source, const toml::node &node, VelocityConfig base,
                              const std::string &name);
 GlideConfig read_glide(const std::string &source, const toml::node &node, GlideConfig base, const std::string &name);
+// The musical keys of a motor's table t ([[boards.motors]], [[presets.motors]]): lowest_note and
+// highest_note (MIDI notes 0-127), transpose (-48..48), tuning_cents (-1200..1200), muted (an
+// array of MIDI notes). Refuses lowest_note above highest_note when t sets both; the range they
+// make with the motor's other values is the caller's to check.
+MusicSettings read_music(const std::string &source, const toml::table &t);
 // policy / priority keys of table t ("poly", "oldest", ...), or fallback when absent.
 Policy get_policy(const std::string &source, const toml::table &t, Policy fallback);
 Priority get_priority(const std::string &source, const toml::table &t, Priority fallback);
