@@ -74,7 +74,7 @@ TEST_CASE("home: carriages at either end or off centre end in the middle, the ra
     REQUIRE(status == 0);
     REQUIRE(vb.stop() == 0);
     const tr::Trace t = tr::read_trace(trace_path);
-    for (size_t m = 0; m < t.motors; ++m) {
+    for (size_t m = 0; m < static_cast<size_t>(t.motors); ++m) {
       INFO("motor " << m);
       const bool homed = std::find(c.homed.begin(), c.homed.end(), m) != c.homed.end();
       if (!homed) {
