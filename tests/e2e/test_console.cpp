@@ -83,6 +83,17 @@ class TmuxSession {
   std::string socket_, conf_;
 };
 
+// A shell command for a tmux pane: `stepchoir ARGS` on the test's JACK server, then its exit
+// status ("EXIT=0") and whether the terminal reads lines and echoes again ("TTY: icanon echo");
+// then the pane stays, with its screen.
+std::string stepchoir_in_pane(const std::string &args) {
+  const char *jack_server = std::getenv("JACK_DEFAULT_SERVER");
+  if (!jack_server) throw std::runtime_error("no JACK server");
+  return std::string("env JACK_DEFAULT_SERVER=") + jack_server + " " + STEPCHOIR_BIN + " " + args +
+         "; echo \"EXIT=$?\"; echo \"TTY: $(stty -a | tr ' ;' '\\n\\n' | grep -x -e icanon -e -icanon -e echo -e -echo | "
+         "tr '\\n' ' ')\"; sleep 600";
+}
+
 // Whether the screen's row of motor m (it starts with the motor's number) starts with `text`.
 bool row_starts(const std::string &screen, int m, const std::string &text) {
   char start[8];
@@ -100,34 +111,42 @@ bool all_silent(const std::string &screen) {
   return true;
 }
 
+// Checks that the screen shows text / that motor m's row starts with text; the screen with a failure.
+void expect_text(const std::string &screen, const std::string &text) {
+  INFO("the screen:\n" << screen);
+  CHECK(screen.find(text) != std::string::npos);
+}
+void expect_row(const std::string &screen, int m, const std::string &text) {
+  INFO("the screen:\n" << screen);
+  CHECK(row_starts(screen, m, text));
+}
+
+// Types q, then checks that the command said `goodbye`, exited 0 and gave the terminal back:
+// reading lines and echoing, out of the alternate screen, the cursor shown.
+void quit_and_check_terminal(TmuxSession &tmux, const std::string &goodbye) {
+  tmux.key("q");
+  const std::string screen = tmux.wait_for("TTY:");
+  expect_text(screen, goodbye);
+  expect_text(screen, "EXIT=0");
+  expect_text(screen, "TTY: icanon echo");
+  CHECK(tmux.format("#{alternate_on}") == "0\n");
+  CHECK(tmux.format("#{cursor_flag}") == "1\n");
+}
+
 }  // namespace
 
 TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octave and panic keys act",
           "[e2e][live][console][pacing]") {
   e2e::LiveRig rig("console");
-  const char *jack_server = std::getenv("JACK_DEFAULT_SERVER");
-  REQUIRE(jack_server);
-  // After it exits: its status, and whether the terminal reads lines and echoes again.
-  TmuxSession tmux(std::string("env JACK_DEFAULT_SERVER=") + jack_server + " " + STEPCHOIR_BIN + " live --config " +
-                       rig.config_path + "; echo \"EXIT=$?\"; echo \"TTY: $(stty -a | tr ' ;' '\\n\\n' | grep -x -e " +
-                       "icanon -e -icanon -e echo -e -echo | tr '\\n' ' ')\"; sleep 600",
-                   80, 24);
-  std::string screen;  // the latest capture, shown with a failed check
-  auto on_screen = [&](const std::string &text) {
-    INFO("the screen:\n" << screen);
-    CHECK(screen.find(text) != std::string::npos);
-  };
-  auto row = [&](int m, const std::string &text) {
-    INFO("the screen:\n" << screen);
-    CHECK(row_starts(screen, m, text));
-  };
+  TmuxSession tmux(stepchoir_in_pane("live --config " + rig.config_path), 80, 24);
+  std::string screen;  // the latest capture
   // The Uno's four motors, silent, their carriages in the middle of the rail (from the board's
   // status replies, once a second).
   const std::string middle = "|-------------------o------------------|";
   screen = tmux.wait_until([&](const std::string &s) { return all_silent(s) && s.find(middle) != std::string::npos; });
-  on_screen("stepchoir live  preset -  transpose +0");
+  expect_text(screen, "stepchoir live  preset -  transpose +0");
   REQUIRE(all_silent(screen));
-  row(3, " 3  --                     " + middle);
+  expect_row(screen, 3, " 3  --                     " + middle);
   wait_ms(300);  // JACK takes the new connection
 
   // A4: motor 0's row shows the note, its Hz and no bend; the MIDI line the key.
@@ -136,8 +155,8 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   auto lift = [&](uint8_t key) { up_s[key] = rig.keys.send(stepchoir::note_off(0, key)); };
   press(69);
   screen = tmux.wait_for("440.00");
-  row(0, " 0  A4      440.00     +0  |");
-  on_screen("last: on  ch1 A4 64");
+  expect_row(screen, 0, " 0  A4      440.00     +0  |");
+  expect_text(screen, "last: on  ch1 A4 64");
   wait_ms(300);
   lift(69);
   const double first_a4_ms = (up_s[69] - down_s[69]) * 1e3;
@@ -148,10 +167,10 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   wait_ms(200);
   tmux.key("o");
   screen = tmux.wait_for("transpose +12");
-  on_screen("transpose +12");
+  expect_text(screen, "transpose +12");
   press(69);
   screen = tmux.wait_for("880.00");
-  row(0, " 0  A5      880.00     +0  |");
+  expect_row(screen, 0, " 0  A5      880.00     +0  |");
   wait_ms(300);
   lift(69);
   wait_ms(300);
@@ -160,25 +179,19 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   press(60);
   press(64);
   screen = tmux.wait_for("659.26");  // E5 (E4 + 12)
-  on_screen(" C5 ");
+  expect_text(screen, " C5 ");
   wait_ms(300);
   const double panic_s = tmux.key("Space");
   screen = tmux.wait_until(all_silent);
   CHECK(all_silent(screen));
-  on_screen("panic: every motor silenced");
+  expect_text(screen, "panic: every motor silenced");
   wait_ms(400);
   lift(60);
   lift(64);
   wait_ms(300);
 
   // q: the process ends with status 0 and the terminal as it was.
-  tmux.key("q");
-  screen = tmux.wait_for("TTY:");
-  on_screen("live: every motor silenced");
-  on_screen("EXIT=0");
-  on_screen("TTY: icanon echo");
-  CHECK(tmux.format("#{alternate_on}") == "0\n");
-  CHECK(tmux.format("#{cursor_flag}") == "1\n");
+  quit_and_check_terminal(tmux, "live: every motor silenced");
   REQUIRE(rig.vb.stop() == 0);
 
   // The trace: A4, then A5 after the octave key, then C5 and E5 until the panic; nothing else.
@@ -202,4 +215,24 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
     CHECK(std::fabs(found->pitch - e.pitch) < 0.01);
     CHECK(std::fabs(ms - e.held_ms) < 80);  // the panic's notes: ended by it, not by their keys
   }
+}
+
+TEST_CASE("jam: the console under tmux shows the song's place, its clock and the keyboard's motors",
+          "[e2e][jam][console][pacing]") {
+  e2e::LiveRig rig("console-jam");
+  TmuxSession tmux(stepchoir_in_pane(std::string("jam ") + STEPCHOIR_SONGS_DIR + "/canon.sng --song-motors 0,1 --midi " +
+                                     Sender::kPort + " --midi-api jack --config " + rig.config_path),
+                   80, 24);
+  std::string screen = tmux.wait_for("song clock");
+  expect_text(screen, "stepchoir jam  playing 0:");
+  // The keyboard's motors, numbered as the rig counts them: 2 and 3 (the song plays 0 and 1).
+  expect_row(screen, 2, " 2  --");
+  expect_row(screen, 3, " 3  --");
+  CHECK_FALSE(row_starts(screen, 0, " 0  "));
+  wait_ms(300);  // JACK takes the new connection
+  rig.keys.send(stepchoir::note_on(0, 69, 64));
+  screen = tmux.wait_for("440.00");
+  expect_row(screen, 2, " 2  A4      440.00     +0  |");
+  rig.keys.send(stepchoir::note_off(0, 69));
+  quit_and_check_terminal(tmux, "jam: stopped, every motor silent");
 }

@@ -246,7 +246,9 @@ namespace {
 ConsoleModel sample_model(size_t motors) {
   ConsoleModel m;
   m.motors.resize(motors);
-  for (ConsoleMotor &mo : m.motors) {
+  for (size_t i = 0; i < motors; ++i) {
+    ConsoleMotor &mo = m.motors[i];
+    mo.number = i;
     mo.travel_steps = 3200;
     mo.has_position = true;
     mo.position_steps = 1600;
@@ -310,6 +312,25 @@ TEST_CASE("console: the screen at 80x24, and what a small terminal keeps", "[con
   CHECK(console_lines(m, f, 1, 1).size() == 1);
 }
 
+TEST_CASE("console: jam's screen: the song's place, the rig's motor numbers, each board's clock", "[console]") {
+  ConsoleModel m = sample_model(2);
+  m.command = "jam";
+  m.song = "playing 0:12 / 1:30";
+  m.motors[0].number = 2;  // the song plays motors 0 and 1
+  m.motors[1].number = 3;
+  m.links.resize(1);
+  m.links[0].has_clock = true;
+  m.links[0].clock_ppm = -10.62;
+  m.links[0].clock_residual_us = 958;
+  ConsoleFooter f;
+  const auto lines = console_lines(m, f, 24, 80);
+  CHECK(lines[0].text.rfind("stepchoir jam  playing 0:12 / 1:30  preset 2/3 split (program 2)  transpose +12", 0) == 0);
+  CHECK(lines[2].text.rfind(" 2  A4", 0) == 0);
+  CHECK(lines[3].text.rfind(" 3  --", 0) == 0);
+  CHECK(lines[5].text == "  song clock -10.6 ppm, fit within 958 us");
+  CHECK(status_line(m).rfind("m2 A4  m3 --  |", 0) == 0);
+}
+
 TEST_CASE("console: the plain status line", "[console]") {
   ConsoleModel m = sample_model(2);
   m.links.resize(1);
@@ -323,23 +344,27 @@ TEST_CASE("console: the plain status line", "[console]") {
 
 TEST_CASE("console: keys", "[console]") {
   using K = KeyCommand::Kind;
+  const std::vector<size_t> four{0, 1, 2, 3};
   for (int key : {27, int(' ')}) {
-    CHECK(command_for_key(key, 4).kind == K::kStage);
-    CHECK(command_for_key(key, 4).action.action == Action::kPanic);
+    CHECK(command_for_key(key, four).kind == K::kStage);
+    CHECK(command_for_key(key, four).action.action == Action::kPanic);
   }
   const std::pair<int, Action> stage[] = {{'p', Action::kPresetNext},    {'P', Action::kPresetPrevious},
                                           {'s', Action::kSetlistNext},   {'S', Action::kSetlistPrevious},
                                           {'t', Action::kTransposeUp},   {'T', Action::kTransposeDown},
                                           {'o', Action::kOctaveUp},      {'O', Action::kOctaveDown}};
-  for (const auto &[key, action] : stage) CHECK(command_for_key(key, 4).action.action == action);
-  const KeyCommand mute = command_for_key('3', 4);
+  for (const auto &[key, action] : stage) CHECK(command_for_key(key, four).action.action == action);
+  const KeyCommand mute = command_for_key('3', four);
   CHECK(mute.kind == K::kStage);
   CHECK(mute.action.action == Action::kMuteMotor);
   CHECK(mute.action.motor == 3);
-  CHECK(command_for_key('4', 4).kind == K::kNone);  // no motor 4
-  CHECK(command_for_key('l', 4).kind == K::kLearn);
-  CHECK(command_for_key('q', 4).kind == K::kQuit);
-  CHECK(command_for_key('x', 4).kind == K::kNone);
+  CHECK(command_for_key('4', four).kind == K::kNone);  // no motor 4
+  // jam with the song on motors 0 and 1: the keyboard's pool motor 0 is the rig's motor 2.
+  CHECK(command_for_key('2', {2, 3}).action.motor == 0);
+  CHECK(command_for_key('0', {2, 3}).kind == K::kNone);
+  CHECK(command_for_key('l', four).kind == K::kLearn);
+  CHECK(command_for_key('q', four).kind == K::kQuit);
+  CHECK(command_for_key('x', four).kind == K::kNone);
 }
 
 TEST_CASE("console: the sampler reads a running session", "[live][console]") {

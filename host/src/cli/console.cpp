@@ -40,7 +40,7 @@ attr_t attributes(LineStyle s, bool colour) {
 
 const char *const kKeysHelp = "Esc:panic p/P:preset s/S:setlist t/T:transp o/O:octave 0-9:mute l:learn q:quit";
 
-KeyCommand command_for_key(int key, size_t motor_count) {
+KeyCommand command_for_key(int key, const std::vector<size_t> &motor_numbers) {
   auto stage = [](Action a, uint8_t motor = 0) { return KeyCommand{KeyCommand::Kind::kStage, StageAction{a, 127, motor}}; };
   switch (key) {
     case kEscape:
@@ -64,13 +64,13 @@ KeyCommand command_for_key(int key, size_t motor_count) {
     case 'l': return KeyCommand{KeyCommand::Kind::kLearn, {}};
     case 'q': return KeyCommand{KeyCommand::Kind::kQuit, {}};
   }
-  if (key >= '0' && key <= '9' && static_cast<size_t>(key - '0') < motor_count)
-    return stage(Action::kMuteMotor, static_cast<uint8_t>(key - '0'));
+  for (size_t i = 0; key >= '0' && key <= '9' && i < motor_numbers.size(); ++i)
+    if (motor_numbers[i] == static_cast<size_t>(key - '0')) return stage(Action::kMuteMotor, static_cast<uint8_t>(i));
   return {};
 }
 
-Console::Console(std::string learn_path, size_t motor_count)
-    : learn_path_(std::move(learn_path)), motor_count_(motor_count) {
+Console::Console(std::string learn_path, std::vector<size_t> motor_numbers)
+    : learn_path_(std::move(learn_path)), motor_numbers_(std::move(motor_numbers)) {
   if (!::isatty(0) || !::isatty(1)) throw std::runtime_error("the console needs a terminal");
   SCREEN *screen = newterm(nullptr, stdout, stdin);
   if (!screen) throw std::runtime_error("the console cannot use this terminal (TERM)");
@@ -136,7 +136,7 @@ void Console::apply(LiveSession &session, int key) {
     return;
   }
   footer_.typing = false;  // Esc leaves the prompt, and panics
-  const KeyCommand c = command_for_key(key, motor_count_);
+  const KeyCommand c = command_for_key(key, motor_numbers_);
   switch (c.kind) {
     case KeyCommand::Kind::kNone: return;
     case KeyCommand::Kind::kQuit: quit_ = true; return;
@@ -162,7 +162,7 @@ void Console::submit(LiveSession &session) {
     return;
   }
   std::string why;
-  const auto r = parse_learn_request(typed, motor_count_, &why);
+  const auto r = parse_learn_request(typed, motor_numbers_.size(), &why);
   if (!r) {
     notice("learn: " + why);
     return;

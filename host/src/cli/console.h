@@ -30,9 +30,10 @@ struct KeyCommand {
   enum class Kind : uint8_t { kNone, kStage, kLearn, kQuit } kind = Kind::kNone;
   StageAction action{};  // kStage
 };
-// key: a curses key code (a character, KEY_UP, ...); motor_count: the pool's (0-9 mute those
-// that exist). Called from: Console, tests.
-KeyCommand command_for_key(int key, size_t motor_count);
+// key: a curses key code (a character, KEY_UP, ...); motor_numbers: the rig's number of each
+// pool motor (a digit mutes the pool motor of that number, if there is one). Called from:
+// Console, tests.
+KeyCommand command_for_key(int key, const std::vector<size_t> &motor_numbers);
 
 // The keys' help line.
 extern const char *const kKeysHelp;
@@ -44,10 +45,12 @@ class Console {
   // Takes the terminal: the alternate screen, no echo, keys one at a time (Ctrl-C and
   // Ctrl-Z stay signals), a hidden cursor; stderr goes to a temporary file until the console
   // ends (a library's stray message would scribble on the screen), then is printed.
-  // learn_path: the rig file learned controls go to ("" : learning says why it cannot).
+  // learn_path: the rig file learned controls go to ("" : learning says why it cannot);
+  // motor_numbers: the rig's number of each pool motor (live: 0, 1, ...; jam: the keyboard's,
+  // counted with the song's).
   // Throws std::runtime_error when the terminal cannot (no terminal, unknown TERM).
   // Called from: run_live and jam, on the main thread, once the session runs.
-  Console(std::string learn_path, size_t motor_count);
+  Console(std::string learn_path, std::vector<size_t> motor_numbers);
   // Gives the terminal back as it was (also on an exception or a signal's stop), then prints
   // what stderr got meanwhile.
   ~Console();
@@ -68,7 +71,7 @@ class Console {
   void submit(LiveSession &session);
 
   std::string learn_path_;
-  size_t motor_count_;
+  std::vector<size_t> motor_numbers_;
   ConsoleFooter footer_;
   bool quit_ = false;
   int saved_stderr_ = -1;

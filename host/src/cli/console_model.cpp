@@ -113,11 +113,13 @@ void WarningTracker::update(ConsoleModel *m, uint64_t midi_dropped, uint64_t now
 ConsoleModel ConsoleSampler::sample(const LiveSession &session, const ConsoleSources &src, uint64_t now_us) {
   ConsoleModel m;
   m.command = src.command;
+  m.song = src.song;
   const int preset = session.preset();
   const AllocatorConfig &music = preset >= 0 ? session.presets()[static_cast<size_t>(preset)].config : src.music;
   const uint32_t mutes = session.stage_mutes();
   for (size_t i = 0; i < session.motor_count(); ++i) {
     ConsoleMotor row;
+    row.number = i < src.motor_numbers.size() ? src.motor_numbers[i] : i;
     motor_pitch(session.motor_note(i), session.motor_period_q8(i), music.motors[i], music.a4_hz, &row);
     row.muted = i < 32 && (mutes >> i & 1u);
     const size_t b = session.motor_board(i);
@@ -166,7 +168,7 @@ ConsoleModel ConsoleSampler::sample(const LiveSession &session, const ConsoleSou
 
 std::string status_line(const ConsoleModel &m) {
   std::string line;
-  for (size_t i = 0; i < m.motors.size(); ++i) line += "m" + std::to_string(i) + " " + motor_note_name(m.motors[i].note) + "  ";
+  for (const ConsoleMotor &mo : m.motors) line += "m" + std::to_string(mo.number) + " " + motor_note_name(mo.note) + "  ";
   for (const ConsoleLink &l : m.links)
     line += "| " + l.name + " " + l.health + ", " + std::to_string(l.frames_sent) + " frames, " +
             std::to_string(l.bad_frames) + " bad ";

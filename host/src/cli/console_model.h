@@ -22,6 +22,7 @@
 namespace stepchoir {
 
 struct ConsoleMotor {
+  size_t number = 0;           // the rig's number for it (jam: counted with the song's motors)
   int note = -1;               // the MIDI note it plays (transposed, folded), -1 when silent
   double hz = 0;               // what it plays now: its period on its board's clock
   double cents = 0;            // now against the note's own pitch (tuning included): bend, vibrato, glide
@@ -55,6 +56,7 @@ struct ConsoleEvent {
 
 struct ConsoleModel {
   std::string command = "live";       // live | jam
+  std::string song;                   // jam: where the song is ("playing 0:12 / 1:30"); live: ""
   std::vector<ConsoleMotor> motors;   // the pool's, in pool order
   std::vector<ConsoleLink> links;     // by board
   uint64_t latency_p50_us = 0, latency_p99_us = 0;
@@ -78,11 +80,14 @@ struct ConsoleSources {
   std::vector<std::string> board_names;  // by board
   std::vector<bool> reconnecting;        // by board: its link failed and its port is being reopened
   std::vector<uint32_t> travel_steps;    // by pool motor
+  std::vector<size_t> motor_numbers;     // by pool motor: the rig's number (empty: the pool's)
   AllocatorConfig music;                 // each motor's clock and tuning, A4 (a preset's replaces it)
   std::string midi_input;                // "" while the input is gone
   uint64_t midi_dropped = 0;             // events the MIDI callback could not queue
-  // jam: by board, the song player's clock (has_clock false where there is none).
+  // jam: by board, the song player's clock (has_clock false where there is none), and where
+  // the song is.
   std::vector<ConsoleLink> clocks;
+  std::string song;
 };
 
 // "C4", "F#5": a MIDI note's name (middle C is C4), "--" for none (-1). Pure.

@@ -35,7 +35,7 @@ std::string short_name(const std::string &path) {
 }
 
 std::string title(const ConsoleModel &m) {
-  std::string t = "stepchoir " + m.command + "  preset ";
+  std::string t = "stepchoir " + m.command + (m.song.empty() ? "" : "  " + m.song) + "  preset ";
   if (m.preset < 0)
     t += "-";
   else
@@ -45,9 +45,9 @@ std::string title(const ConsoleModel &m) {
   return t;
 }
 
-ScreenLine motor_line(const ConsoleMotor &mo, size_t index, size_t cols) {
+ScreenLine motor_line(const ConsoleMotor &mo, size_t cols) {
   const bool sounding = mo.note >= 0;
-  std::string line = format("%2zu  %-4s %9s %6s  ", index, motor_note_name(mo.note).c_str(),
+  std::string line = format("%2zu  %-4s %9s %6s  ", mo.number, motor_note_name(mo.note).c_str(),
                             sounding ? format("%.2f", mo.hz).c_str() : "",
                             sounding ? format("%+.0f", std::fabs(mo.cents) < 0.5 ? 0.0 : mo.cents).c_str() : "");
   const size_t room = cols > kRowFixed + kRowFlags ? cols - kRowFixed - kRowFlags : 0;
@@ -58,12 +58,14 @@ ScreenLine motor_line(const ConsoleMotor &mo, size_t index, size_t cols) {
   return {line, mo.muted ? LineStyle::kMuted : sounding ? LineStyle::kSounding : LineStyle::kNormal};
 }
 
-ScreenLine link_line(const ConsoleLink &l) {
-  std::string line = format("%-16s %-12s %4.0f fr/s  err %llu  bad %u  reconn %u  ends %u", short_name(l.name).c_str(),
-                            l.health.c_str(), l.frames_per_s, static_cast<unsigned long long>(l.board_errors),
-                            l.bad_frames, l.reconnects, l.reversals);
-  if (l.has_clock) line += format("  clock %+.1f ppm +/-%.0f us", l.clock_ppm, l.clock_residual_us);
-  return {line, l.healthy ? LineStyle::kNormal : LineStyle::kWarning};
+// A board's link: a line, and a second for its song clock where there is one (jam).
+void add_link_lines(const ConsoleLink &l, std::vector<ScreenLine> *out) {
+  const std::string line = format("%-16s %-12s %4.0f fr/s  err %llu  bad %u  reconn %u  ends %u",
+                                  short_name(l.name).c_str(), l.health.c_str(), l.frames_per_s,
+                                  static_cast<unsigned long long>(l.board_errors), l.bad_frames, l.reconnects, l.reversals);
+  out->push_back({line, l.healthy ? LineStyle::kNormal : LineStyle::kWarning});
+  if (l.has_clock)
+    out->push_back({format("  song clock %+.1f ppm, fit within %.0f us", l.clock_ppm, l.clock_residual_us)});
 }
 
 std::string midi_line(const ConsoleModel &m) {
@@ -119,8 +121,8 @@ std::vector<ScreenLine> console_lines(const ConsoleModel &m, const ConsoleFooter
   enum Part { kHeading, kMotors, kLinks, kLatency, kMidi, kWarnings, kLearn, kNotices, kParts };
   std::vector<ScreenLine> part[kParts];
   part[kHeading].push_back({" #  note        Hz  cents  rail", LineStyle::kHeading});
-  for (size_t i = 0; i < m.motors.size(); ++i) part[kMotors].push_back(motor_line(m.motors[i], i, cols));
-  for (const ConsoleLink &l : m.links) part[kLinks].push_back(link_line(l));
+  for (const ConsoleMotor &mo : m.motors) part[kMotors].push_back(motor_line(mo, cols));
+  for (const ConsoleLink &l : m.links) add_link_lines(l, &part[kLinks]);
   part[kLatency].push_back({format("latency p50 %llu us  p99 %llu us  %llu events",
                                    static_cast<unsigned long long>(m.latency_p50_us),
                                    static_cast<unsigned long long>(m.latency_p99_us),

@@ -213,7 +213,9 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::unique_ptr<Console> console;
   if (!o.quiet && !o.plain && !learn && tty && ::isatty(0)) {
     try {
-      console = std::make_unique<Console>(learn_path, session.motor_count());
+      std::vector<size_t> numbers(session.motor_count());
+      for (size_t m = 0; m < numbers.size(); ++m) numbers[m] = m;
+      console = std::make_unique<Console>(learn_path, numbers);
     } catch (const std::exception &e) {
       std::printf("live: %s: the status line instead\n", e.what());
     }
