@@ -277,7 +277,7 @@ ConsoleModel sample_model(size_t motors) {
 TEST_CASE("console: the screen at 80x24, and what a small terminal keeps", "[console]") {
   ConsoleFooter f;
   f.keys = kKeysHelp;
-  f.notices = {"preset 2 split"};
+  f.notices = {"old news", "preset 1 plain", "setlist 2/3 encore", "preset 2 split"};
   const ConsoleModel m = sample_model(9);
   auto lines = console_lines(m, f, 24, 80);
   REQUIRE(lines.size() == 24);
@@ -290,6 +290,7 @@ TEST_CASE("console: the screen at 80x24, and what a small terminal keeps", "[con
   for (const ScreenLine &l : lines) all += l.text + "\n";
   for (const char *part : {"ttyACM0", "latency p50", "MIDI keys  last: on  ch1 A4 64 0.2s", "! three", "preset 2 split"})
     CHECK(all.find(part) != std::string::npos);
+  CHECK(all.find("old news") == std::string::npos);  // the latest three messages only
   // 40x8: the title, as many motors as fit (the last says how many more), the keys.
   lines = console_lines(m, f, 8, 40);
   REQUIRE(lines.size() == 8);

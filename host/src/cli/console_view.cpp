@@ -15,7 +15,7 @@ constexpr size_t kBarMax = 40;     // the rail bar's widest (characters)
 constexpr size_t kBarMin = 7;      // narrower than this: no bar
 constexpr size_t kRowFixed = 26;   // a motor row's characters before its bar
 constexpr size_t kRowFlags = 7;    // kept free after the bar for " muted"
-constexpr size_t kNotices = 3;     // the latest messages shown
+constexpr size_t kNoticesShown = 3;  // the latest messages shown
 
 // printf into a std::string (lines are short).
 std::string format(const char *f, ...) __attribute__((format(printf, 1, 2)));
@@ -132,7 +132,7 @@ std::vector<ScreenLine> console_lines(const ConsoleModel &m, const ConsoleFooter
   if (f.typing) part[kLearn] = action_lines(cols);
   if (!f.learning.empty())
     part[kLearn].push_back({"learn " + f.learning + ": move a knob or press a pedal", LineStyle::kNotice});
-  const size_t first_notice = f.notices.size() > kNotices ? f.notices.size() - kNotices : 0;
+  const size_t first_notice = f.notices.size() > kNoticesShown ? f.notices.size() - kNoticesShown : 0;
   for (size_t i = first_notice; i < f.notices.size(); ++i) part[kNotices].push_back({f.notices[i], LineStyle::kNotice});
 
   // What fits, in order of importance; the title and the last line are always there.
