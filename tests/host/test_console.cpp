@@ -384,6 +384,10 @@ TEST_CASE("console: the sampler reads a running session", "[live][console]") {
   src.travel_steps.assign(4, 3200);
   src.music = config;
   src.midi_input = "keys";
+  src.setlist_item = 1;
+  src.setlist_count = 3;
+  src.setlist_name = "encore";
+  src.song_motors = 0x8;  // the setlist's song plays motor 3
   ConsoleSampler sampler;
   const ConsoleModel m = sampler.sample(session, src, monotonic_us());
   session.stop();
@@ -402,5 +406,13 @@ TEST_CASE("console: the sampler reads a running session", "[live][console]") {
   CHECK(m.recent[0].text == "on  ch1 A4 64");
   CHECK(m.events == 1);
   CHECK(m.preset == -1);
+  CHECK(m.setlist_item == 1);
+  CHECK(m.setlist_count == 3);
+  CHECK(m.setlist_name == "encore");
+  CHECK(m.motors[3].song);
+  CHECK_FALSE(m.motors[2].song);
+  const auto lines = console_lines(m, ConsoleFooter{}, 24, 80);
+  CHECK(lines[0].text == "stepchoir live  preset -  transpose +0  setlist 2/3 encore");
+  CHECK(lines[5].text.find("| song") != std::string::npos);
   CHECK(m.warnings == std::vector<std::string>{"fake-port: the board does not answer"});
 }

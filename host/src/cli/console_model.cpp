@@ -130,6 +130,7 @@ ConsoleModel ConsoleSampler::sample(const LiveSession &session, const ConsoleSou
     row.position_steps = st.position_steps[bm].load();
     row.travel_steps = i < src.travel_steps.size() ? src.travel_steps[i] : 0;
     row.switch_fault = st.endstop_fault_mask.load() >> bm & 1u;
+    row.song = i < 32 && (src.song_motors >> i & 1u);
     m.motors.push_back(row);
   }
   const double dt_s = last_us_ && now_us > last_us_ ? (now_us - last_us_) / 1e6 : 0;
@@ -162,6 +163,9 @@ ConsoleModel ConsoleSampler::sample(const LiveSession &session, const ConsoleSou
     m.preset_name = session.presets()[static_cast<size_t>(preset)].name;
   }
   m.transpose = session.stage_transpose();
+  m.setlist_item = src.setlist_item;
+  m.setlist_count = src.setlist_count;
+  m.setlist_name = src.setlist_name;
   warnings_.update(&m, src.midi_dropped, now_us);
   return m;
 }

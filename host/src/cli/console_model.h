@@ -31,6 +31,7 @@ struct ConsoleMotor {
   int32_t position_steps = 0;  // 0 .. travel_steps, the middle at travel_steps / 2
   uint32_t travel_steps = 0;   // the rail (config/rig.h motor_travel)
   bool switch_fault = false;   // the board ignores its stuck end switch
+  bool song = false;           // a setlist song plays it, not the keyboard
 };
 
 struct ConsoleLink {
@@ -68,7 +69,7 @@ struct ConsoleModel {
   int preset_program = 0;             // 1-128, as the keyboard shows it
   std::string preset_name;
   int transpose = 0;                  // the stage transpose, semitones
-  int setlist_item = -1;              // index, -1 without a setlist (none is read yet)
+  int setlist_item = -1;              // index, -1 without a setlist
   size_t setlist_count = 0;
   std::string setlist_name;
   std::vector<std::string> warnings;  // plain words, most urgent first
@@ -88,6 +89,12 @@ struct ConsoleSources {
   // the song is.
   std::vector<ConsoleLink> clocks;
   std::string song;
+  // live: the setlist's item (index, -1 without a setlist), its size and the item's name, and
+  // the pool motors its song plays now (bit m: motor m).
+  int setlist_item = -1;
+  size_t setlist_count = 0;
+  std::string setlist_name;
+  uint32_t song_motors = 0;
 };
 
 // "C4", "F#5": a MIDI note's name (middle C is C4), "--" for none (-1). Pure.

@@ -54,6 +54,7 @@ ScreenLine motor_line(const ConsoleMotor &mo, size_t cols) {
   const size_t bar = std::min(room, kBarMax);
   if (bar >= kBarMin) line += rail_bar(mo, bar);
   if (mo.muted) line += " muted";
+  if (mo.song) line += " song";
   if (mo.switch_fault) line += " switch stuck";
   return {line, mo.muted ? LineStyle::kMuted : sounding ? LineStyle::kSounding : LineStyle::kNormal};
 }

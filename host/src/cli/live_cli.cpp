@@ -221,6 +221,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     }
   }
   const Say say{console.get(), tty && !o.quiet && !console};
+  if (setlist) setlist->set_say([&say](const std::string &line) { say(line); });
   ConsoleSources sources;
   sources.board_names = ports;
   sources.reconnecting.assign(ports.size(), false);
@@ -266,6 +267,12 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       say("preset " + std::to_string(p.program + 1) + " " + p.name);
     }
     if (o.quiet) continue;
+    if (setlist) {
+      sources.setlist_item = static_cast<int>(setlist->position());
+      sources.setlist_count = setlist->size();
+      sources.setlist_name = setlist->item().name;
+      sources.song_motors = setlist->song_motors();
+    }
     sources.midi_input = midi ? midi->port_name() : "";
     sources.midi_dropped = midi ? midi->dropped() : 0;
     if (console) {
