@@ -15,6 +15,7 @@ PACKAGES=(
   librtmidi-dev libreaderwriterqueue-dev          # live: MIDI in, lock-free queues
   libtomlplusplus-dev                             # live: configuration file
   jackd2 libjack-jackd2-dev                       # live: JACK (jackd2, not jack1: librtmidi-dev takes either)
+  libncurses-dev tmux                             # live: the console (curses), its test (tmux)
 )
 
 missing=()

@@ -45,6 +45,17 @@ std::string describe_control(const Binding &b) {
          (b.channel < 0 ? std::string(" on any channel") : " on channel " + std::to_string(b.channel + 1));
 }
 
+std::string save_learned(const std::string &path, const Binding &b) {
+  const std::string what = "learned " + describe_control(b) + " -> " + action_name(b.action) +
+                           (b.action == Action::kMuteMotor ? " " + std::to_string(b.motor) : "");
+  try {
+    save_control(path, b);
+    return what + ", saved to " + path;
+  } catch (const std::exception &e) {
+    return what + ", but it is not saved: " + e.what();
+  }
+}
+
 LearnPrompt::LearnPrompt(std::string path, size_t motor_count) : path_(std::move(path)), motor_count_(motor_count) {
   std::printf("live: learn: type an action (its number or name; mute_motor takes a motor), then move a knob or press a pedal; it is saved to %s\n",
               path_.c_str());
@@ -56,14 +67,7 @@ LearnPrompt::LearnPrompt(std::string path, size_t motor_count) : path_(std::move
 
 void LearnPrompt::poll(LiveSession &session) {
   if (const auto b = session.learned()) {
-    try {
-      save_control(path_, *b);
-      std::printf("live: learned %s -> %s%s, saved to %s\n", describe_control(*b).c_str(), action_name(b->action),
-                  b->action == Action::kMuteMotor ? (" " + std::to_string(b->motor)).c_str() : "", path_.c_str());
-    } catch (const std::exception &e) {
-      std::printf("live: learned %s -> %s, but it is not saved: %s\n", describe_control(*b).c_str(),
-                  action_name(b->action), e.what());
-    }
+    std::printf("live: %s\n", save_learned(path_, *b).c_str());
     std::fflush(stdout);
   }
   while (input_open_) {

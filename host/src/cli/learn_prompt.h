@@ -26,6 +26,11 @@ std::optional<LearnRequest> parse_learn_request(const std::string &line, size_t 
 // "CC 64 on channel 1" / "CC 1 on any channel": a binding's controller, for messages.
 std::string describe_control(const Binding &b);
 
+// Saves a binding the engine learned to the rig file at path (save_control) and says what
+// happened: "learned CC 67 on channel 1 -> preset_next, saved to PATH", or why it is not
+// saved. Called from: LearnPrompt, the console; the main thread.
+std::string save_learned(const std::string &path, const Binding &b);
+
 class LearnPrompt {
  public:
   // path: the rig file the bindings go to (created when missing). Prints the menu.

@@ -1,5 +1,6 @@
 // live_cli.cpp: `stepchoir live`: opens the boards (or starts the virtual board), the MIDI
-// input and a LiveSession; shows one status line; silences everything on the way out.
+// input and a LiveSession; runs the main loop (the console or the status line, link repair,
+// the MIDI input's watch); silences everything on the way out.
 #include "cli/live_cli.h"
 
 #include <fcntl.h>
@@ -21,6 +22,8 @@
 
 #include "board/board.h"
 #include "board/vboard_child.h"
+#include "cli/console.h"
+#include "cli/console_model.h"
 #include "cli/learn_prompt.h"
 #include "cli/setlist_runner.h"
 #include "config/config.h"
@@ -34,68 +37,64 @@ extern char **environ;
 namespace stepchoir {
 namespace {
 
-// Called from: the status line. "C4", "F#5" for a MIDI note.
-std::string note_name(int note) {
-  static const char *const kNames[12] = {"C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B"};
-  return std::string(kNames[note % 12]) + std::to_string(note / 12 - 1);
-}
+// Where live's messages go: the console's messages while it is up, else a line on stdout
+// (after a newline when the status line holds the terminal's last line).
+struct Say {
+  Console *console = nullptr;
+  bool after_status = false;
+  void operator()(const std::string &line) const {
+    if (console) return console->notice(line);
+    std::printf("%slive: %s\n", after_status ? "\n" : "", line.c_str());
+    std::fflush(stdout);
+  }
+};
 
-// Called from: run_live, every 100 ms. The one status line: motors, link, latency.
-std::string status_line(const LiveSession &s, const std::vector<std::unique_ptr<Board>> &boards) {
-  std::string line;
-  for (size_t m = 0; m < s.motor_count(); ++m) {
-    const int note = s.motor_note(m);
-    line += "m" + std::to_string(m) + " " + (note < 0 ? std::string("--") : note_name(note)) + "  ";
-  }
-  const uint64_t now = monotonic_us();
-  for (size_t b = 0; b < s.board_count(); ++b) {
-    const BoardStats &st = s.board_stats(b);
-    const uint64_t seen = st.last_status_us.load();
-    const char *health = st.write_failed ? "WRITE FAILED"
-                         : st.read_failed ? "READ FAILED"
-                         : (seen && now - seen < 2500000) ? (st.watchdog_tripped ? "watchdog" : "ok")
-                                                          : "no answer";
-    line += "| " + (boards[b] ? boards[b]->link().name() : std::string("?")) + " " + health + ", " + std::to_string(st.frames_sent.load()) +
-            " frames, " + std::to_string(st.status_frames_bad.load()) + " bad ";
-  }
-  char lat[96];
-  std::snprintf(lat, sizeof lat, "| %llu events, latency p50 %llu us p99 %llu us",
-                static_cast<unsigned long long>(s.events()), static_cast<unsigned long long>(s.latency().percentile(0.5)),
-                static_cast<unsigned long long>(s.latency().percentile(0.99)));
-  return line + lat;
-}
+// One board's way back after its link failed: the main loop parks the board's threads (the
+// old link may close only once they no longer touch it: a serial write can block for a
+// second), then reopens the port every 500 ms until a board with as many motors is greeted,
+// configures its motors again (the open reset it: it runs on defaults) and hands the session
+// the new link, which restores what should be sounding. One step a pass of the loop, so the
+// console keeps its keys meanwhile.
+struct LinkRepair {
+  enum class State : uint8_t { kUp, kParking, kReopening } state = State::kUp;
+  std::chrono::steady_clock::time_point next_try{};
+};
 
-// Called from: run_live's loop when board b's link failed. Parks the board's threads, then
-// reopens `path` every 500 ms until a board with as many motors is greeted (or *stop), and
-// configures its motors again from `settings` (the open reset it: it runs on defaults); the
-// session then restores what should be sounding. Says so on stdout.
-void reconnect(LiveSession &session, size_t b, const std::string &path, size_t motors, const BoardSettings *settings,
-               std::vector<std::unique_ptr<Board>> &boards, const std::atomic<bool> &stop, spdlog::logger &log) {
-  std::printf("\nlive: %s: link lost; reconnecting\n", path.c_str());
-  std::fflush(stdout);
-  // The old link may be closed only once the board's threads no longer touch it (a serial
-  // write can block for a second).
-  while (!session.detach_link(b)) {
-    log.warn("{}: the board's threads are still using the lost link; waiting", path);
-    if (stop.load()) return;
+// Called from: run_live's loop, every pass. True while board b is being reconnected.
+bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t motors, const BoardSettings *settings,
+                 std::vector<std::unique_ptr<Board>> &boards, LinkRepair &r, const Say &say, spdlog::logger &log) {
+  using State = LinkRepair::State;
+  const BoardStats &st = session.board_stats(b);
+  if (r.state == State::kUp) {
+    if (!st.write_failed.load() && !st.read_failed.load()) return false;
+    say(path + ": link lost; reconnecting");
+    r.state = State::kParking;
   }
-  boards[b].reset();
-  while (!stop.load()) {
-    try {
-      auto board = std::make_unique<Board>(open_link(path));
-      const Caps caps = board->greet(Board::kBootWaitMs, 600);
-      if (caps.motor_count != motors)
-        throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
-      if (settings) configure_motors(*board, caps, *settings, path);
-      session.attach_link(b, &board->link());
-      boards[b] = std::move(board);
-      std::printf("live: %s: reconnected\n", path.c_str());
-      std::fflush(stdout);
-      return;
-    } catch (const std::exception &e) {
-      log.debug("{}: {}", path, e.what());
+  if (r.state == State::kParking) {
+    if (!session.detach_link(b)) {
+      log.warn("{}: the board's threads are still using the lost link; waiting", path);
+      return true;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    boards[b].reset();
+    r.state = State::kReopening;
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (now < r.next_try) return true;
+  try {
+    auto board = std::make_unique<Board>(open_link(path));
+    const Caps caps = board->greet(Board::kBootWaitMs, 600);
+    if (caps.motor_count != motors)
+      throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
+    if (settings) configure_motors(*board, caps, *settings, path);
+    session.attach_link(b, &board->link());
+    boards[b] = std::move(board);
+    r.state = State::kUp;
+    say(path + ": reconnected");
+    return false;
+  } catch (const std::exception &e) {
+    log.debug("{}: {}", path, e.what());
+    r.next_try = now + std::chrono::milliseconds(500);
+    return true;
   }
 }
 
@@ -103,7 +102,7 @@ void reconnect(LiveSession &session, size_t b, const std::string &path, size_t m
 // releases every note (reset-all-controllers and all-sound-off on every channel: no note-off
 // or pedal release will come for what was down) and says so; while it is away, reopens it as soon as the selector finds a port.
 void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::string &selector, LiveSession &session,
-                      bool tty) {
+                      const Say &say) {
   if (midi && midi->still_there()) return;
   if (midi) {
     const std::string name = midi->port_name();
@@ -112,15 +111,12 @@ void watch_midi_input(std::unique_ptr<MidiIn> &midi, MidiApi api, const std::str
       for (uint8_t cc : {kCcResetAllControllers, kCcAllSoundOff})  // pedals up, bends centred, silence
         while (!session.midi_queue().try_enqueue(control_change(ch, cc, 0, monotonic_us())))
           std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    std::printf("%slive: MIDI input %s is gone; every note released, waiting for it\n", tty ? "\n" : "",
-                name.c_str());
-    std::fflush(stdout);
+    say("MIDI input " + name + " is gone; every note released, waiting for it");
     return;
   }
   try {
     midi = std::make_unique<MidiIn>(api, selector, session.midi_queue());
-    std::printf("%slive: MIDI input %s is back\n", tty ? "\n" : "", midi->port_name().c_str());
-    std::fflush(stdout);
+    say("MIDI input " + midi->port_name() + " is back");
   } catch (const std::exception &) {
   }
 }
@@ -187,11 +183,11 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::vector<LivePreset> presets = live_presets(cfg, alloc);  // every motor index checked against the pool
   const std::string locked = lock_memory();  // before the real-time threads start
   const std::vector<Binding> controls = live_controls(cfg, alloc.motor_count);
+  const std::string learn_path = rig.path.empty() ? default_config_path() : rig.path;
   std::unique_ptr<LearnPrompt> learn;
   if (o.learn) {
-    const std::string path = rig.path.empty() ? default_config_path() : rig.path;
-    if (path.empty()) throw std::runtime_error("--learn: no rig file to save to (give --config FILE, or set HOME)");
-    learn = std::make_unique<LearnPrompt>(path, alloc.motor_count);
+    if (learn_path.empty()) throw std::runtime_error("--learn: no rig file to save to (give --config FILE, or set HOME)");
+    learn = std::make_unique<LearnPrompt>(learn_path, alloc.motor_count);
   }
   std::unique_ptr<SetlistRunner> setlist;
   if (!cfg.setlist.empty()) setlist = std::make_unique<SetlistRunner>(cfg.setlist, setlist_boards, cfg.a4_hz);
@@ -212,21 +208,49 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
               size_t(session.realtime_threads()) == rt_wanted ? "" : " (`stepchoir doctor` says how to allow it)");
   std::fflush(stdout);
 
+  // The console on a terminal; else the status line (unless --quiet).
+  const bool tty = ::isatty(1);
+  std::unique_ptr<Console> console;
+  if (!o.quiet && !o.plain && !learn && tty && ::isatty(0)) {
+    try {
+      std::vector<size_t> numbers(session.motor_count());
+      for (size_t m = 0; m < numbers.size(); ++m) numbers[m] = m;
+      console = std::make_unique<Console>(learn_path, numbers);
+    } catch (const std::exception &e) {
+      std::printf("live: %s: the status line instead\n", e.what());
+    }
+  }
+  const Say say{console.get(), tty && !o.quiet && !console};
+  if (setlist) setlist->set_say([&say](const std::string &line) { say(line); });
+  ConsoleSources sources;
+  sources.board_names = ports;
+  sources.reconnecting.assign(ports.size(), false);
+  for (size_t b = 0; b < ports.size(); ++b)
+    for (uint8_t m = 0; m < pool[b].motor_count; ++m)
+      sources.travel_steps.push_back(motor_travel(board_settings(rig, ports[b], b), m));
+  sources.music = alloc;
+  ConsoleSampler sampler;
+  std::vector<LinkRepair> repairs(ports.size());
   uint64_t errors_logged = 0, dropped_logged = 0;
   int preset_shown = -1;
-  const bool tty = ::isatty(1);
-  auto last_print = std::chrono::steady_clock::now();
-  for (unsigned tick = 1; !stop.load(); ++tick) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (tick % 10 == 0) watch_midi_input(midi, api, midi_selector, session, tty);
+  auto last_print = std::chrono::steady_clock::now(), last_midi_check = last_print, last_draw = last_print;
+  while (!stop.load()) {
+    if (!console)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    else if (!console->handle_keys(session, Console::kFrameMs))
+      break;  // q
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_midi_check >= std::chrono::seconds(1)) {
+      watch_midi_input(midi, api, midi_selector, session, say);
+      last_midi_check = now;
+    }
     if (learn) learn->poll(session);
     if (setlist) setlist->poll(session);
     uint64_t errors = 0;
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
-      const BoardStats &st = session.board_stats(b);
-      if (st.write_failed.load() || st.read_failed.load()) 
-        reconnect(session, b, ports[b], pool[b].motor_count, board_settings(rig, ports[b], b), boards, stop, *log);
+      sources.reconnecting[b] = repair_link(session, b, ports[b], pool[b].motor_count, board_settings(rig, ports[b], b),
+                                            boards, repairs[b], say, *log);
     }
     if (errors != errors_logged) {
       log->warn("the boards reported {} errors (latest: {})", errors,
@@ -240,24 +264,36 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (session.preset() != preset_shown) {
       preset_shown = session.preset();
       const LivePreset &p = session.presets()[static_cast<size_t>(preset_shown)];
-      std::printf("%slive: preset %d %s\n", tty && !o.quiet ? "\n" : "", p.program + 1, p.name.c_str());
-      std::fflush(stdout);
+      say("preset " + std::to_string(p.program + 1) + " " + p.name);
     }
     if (o.quiet) continue;
-    const auto now = std::chrono::steady_clock::now();
-    if (tty) {
-      std::printf("\r%s\033[K", status_line(session, boards).c_str());
+    if (setlist) {
+      sources.setlist_item = static_cast<int>(setlist->position());
+      sources.setlist_count = setlist->size();
+      sources.setlist_name = setlist->item().name;
+      sources.song_motors = setlist->song_motors();
+    }
+    sources.midi_input = midi ? midi->port_name() : "";
+    sources.midi_dropped = midi ? midi->dropped() : 0;
+    if (console) {
+      if (now - last_draw >= std::chrono::milliseconds(Console::kFrameMs)) {
+        console->draw(sampler.sample(session, sources, monotonic_us()));
+        last_draw = now;
+      }
+    } else if (tty) {
+      std::printf("\r%s\033[K", status_line(sampler.sample(session, sources, monotonic_us())).c_str());
       std::fflush(stdout);
     } else if (now - last_print >= std::chrono::seconds(1)) {
-      std::printf("%s\n", status_line(session, boards).c_str());
+      std::printf("%s\n", status_line(sampler.sample(session, sources, monotonic_us())).c_str());
       std::fflush(stdout);
       last_print = now;
     }
   }
+  console.reset();  // the terminal as it was, before anything else is printed
   midi.reset();  // no more callbacks
   if (setlist) setlist->stop(session);
   session.stop();
-  if (tty && !o.quiet) std::printf("\n");
+  if (say.after_status) std::printf("\n");
   std::printf("live: every motor silenced (%llu events, latency p50 %llu us, p99 %llu us, max %llu us)\n",
               static_cast<unsigned long long>(session.events()),
               static_cast<unsigned long long>(session.latency().percentile(0.5)),

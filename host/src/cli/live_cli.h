@@ -1,4 +1,5 @@
-// live_cli.h: the `stepchoir live` command: MIDI in, motors out, a status line, clean exit.
+// live_cli.h: the `stepchoir live` command: MIDI in, motors out, the console (or a status
+// line), clean exit.
 #ifndef STEPCHOIR_HOST_LIVE_CLI_H
 #define STEPCHOIR_HOST_LIVE_CLI_H
 
@@ -20,7 +21,8 @@ struct LiveOptions {
   std::string policy;                    // poly | channel | mono
   std::string vboard_board = "uno";      // board the virtual board simulates
   std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
-  bool quiet = false;                    // no status line
+  bool quiet = false;                    // no console, no status line
+  bool plain = false;                    // the status line even on a terminal (no console)
   bool learn = false;                    // MIDI learn from standard input (cli/learn_prompt.h)
 };
 

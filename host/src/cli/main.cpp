@@ -207,7 +207,8 @@ int main(int argc, char **argv) {
       ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
-  live->add_flag("--quiet,-q", live_opt.quiet, "No status line");
+  live->add_flag("--quiet,-q", live_opt.quiet, "No console and no status line");
+  live->add_flag("--plain", live_opt.plain, "The one status line, not the console, on a terminal");
   live->add_flag("--learn", live_opt.learn,
                  "MIDI learn: type an action, move a control; it is saved to the rig file's [[controls]]");
 

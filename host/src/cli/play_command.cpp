@@ -1,5 +1,6 @@
 // play_command.cpp: `stepchoir play` and `stepchoir render`: song -> plan -> Player on a board
-// (a real one, or the virtual board started here), with a progress line and a report.
+// (a real one, or the virtual board started here), with a progress line (jam on a terminal: the
+// console) and a report.
 #include "cli/play_command.h"
 
 #include <unistd.h>
@@ -8,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -16,6 +18,7 @@
 #include "board/child_process.h"
 #include "board/link.h"
 #include "board/vboard_child.h"
+#include "cli/jam_console.h"
 #include "cli/jam_link.h"
 #include "cli/play_report.h"
 #include "config/board_memory.h"
@@ -172,7 +175,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
       ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
   c->jam->add_flag("--loop", c->loop, "Start the song again at the end (Ctrl-C stops)");
-  c->jam->add_flag("--quiet,-q", c->quiet, "No progress line");
+  c->jam->add_flag("--quiet,-q", c->quiet, "No console and no progress line");
+  c->jam->add_flag("--plain", c->plain, "The progress line, not the console, on a terminal");
   c->render = app.add_subcommand("render", "Play a song through the firmware on the virtual board, as fast as it "
                                            "runs, and write what the motors played");
   selection(c->render);
@@ -306,6 +310,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     }
     std::unique_ptr<LiveSession> session;
     std::unique_ptr<MidiIn> midi_in;
+    ConsoleSources console_sources;  // jam: what its console shows besides the session
     // jam --midi-clock: one clock queue and timeline a board's player.
     std::vector<std::unique_ptr<ClockQueue>> clock_queues;
     std::vector<std::unique_ptr<MidiClockTimeline>> timelines;
@@ -323,6 +328,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
       }
       apply_allocation(rig.config, &alloc);
+      console_sources.music = alloc;
       session = std::make_unique<LiveSession>(lbs, alloc);
       for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
       midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
@@ -335,7 +341,12 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       std::string ids_song, ids_live;  // pool numbers
       for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].caps.motor_count, ++b) {
         for (uint8_t m : boards[b].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(first + m);
-        for (uint8_t m : boards[b].live_ids) ids_live += (ids_live.empty() ? "" : ",") + std::to_string(first + m);
+        for (uint8_t m : boards[b].live_ids) {
+          ids_live += (ids_live.empty() ? "" : ",") + std::to_string(first + m);
+          console_sources.motor_numbers.push_back(first + m);
+          console_sources.travel_steps.push_back(motor_travel(boards[b].settings, m));
+        }
+        console_sources.board_names.push_back(boards[b].path);
       }
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
                   midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
@@ -374,21 +385,35 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       players.push_back(std::make_unique<Player>(std::move(board), boards[b].caps, std::move(events[b]),
                                                  plan.duration_s, po, opener));
     }
-    Keys keys;
-    const bool show = !quiet && !rendering && ::isatty(2);
+    // jam on a terminal: the console (its keys: the stage's); else play's keys and progress line.
+    std::unique_ptr<JamConsole> console;
+    if (jamming && !quiet && !plain && ::isatty(0) && ::isatty(1)) {
+      try {
+        console = std::make_unique<JamConsole>(console_sources, rig.path.empty() ? default_config_path() : rig.path);
+      } catch (const std::exception &e) {
+        std::printf("jam: %s: the progress line instead\n", e.what());
+      }
+    }
+    std::optional<Keys> keys;
+    if (!console) keys.emplace();
+    const bool show = !quiet && !rendering && ::isatty(2) && !console;
     std::vector<char> ok(players.size(), 1);
     std::vector<std::thread> others;
     for (size_t b = 1; b < players.size(); ++b)
       others.emplace_back([&, b] {
-        ok[b] = players[b]->run(stop, g_pause, {});
+        ok[b] = players[b]->run(stop, g_pause, [&, b](const PlayerProgress &p) {
+          if (console) console->publish_clock(b, *p.stats);
+        });
         gate.leave(b);
       });
     ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) {
-      if (keys.poll()) stop = true;
+      if (console && !console->update(*session, p, midi_in.get())) stop = true;
+      if (keys && keys->poll()) stop = true;
       if (show) print_progress(p);
     });
     gate.leave(0);
     for (std::thread &t : others) t.join();
+    console.reset();  // the terminal as it was, before the reports
     if (show) std::fprintf(stderr, "\n");
     if (jamming) {
       midi_in.reset();  // no more callbacks

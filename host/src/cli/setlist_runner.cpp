@@ -89,8 +89,8 @@ void SetlistRunner::poll(LiveSession &session) {
   }
   if (song_playing() && finished_.load() == threads_.size()) {
     end_song(session);
-    std::printf("live: setlist %zu/%zu %s: the song ended\n", position_ + 1, items_.size(), item().name.c_str());
-    std::fflush(stdout);
+    say_("setlist " + std::to_string(position_ + 1) + "/" + std::to_string(items_.size()) + " " + item().name +
+         ": the song ended");
   }
 }
 
@@ -117,8 +117,7 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
   for (size_t m = 0; m < 32; ++m)
     if (sp.pool_motors >> m & 1) motors += (motors.empty() ? "" : ",") + std::to_string(m);
   const std::string song = it.song.empty() ? "" : ": the song on motors " + motors;
-  std::printf("live: setlist %zu/%zu %s%s\n", index + 1, items_.size(), it.name.c_str(), song.c_str());
-  std::fflush(stdout);
+  say_("setlist " + std::to_string(index + 1) + "/" + std::to_string(items_.size()) + " " + it.name + song);
   if (it.song.empty()) return;
   // The keyboard lets go of the song's motors (their notes silenced) before the song has them.
   session.set_song_pool(sp.pool_motors);

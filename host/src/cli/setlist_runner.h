@@ -7,6 +7,8 @@
 #define STEPCHOIR_HOST_CLI_SETLIST_RUNNER_H
 
 #include <atomic>
+#include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -45,6 +47,9 @@ class SetlistRunner {
   // "live: setlist N/M NAME" on entering an item. Called from: run_live's loop, the main thread
   // (the stage queue's producer), every 100 ms.
   void poll(LiveSession &session);
+  // Where the runner's messages ("setlist N/M NAME") go from now on; by default a "live: "
+  // line on stdout. Called from: run_live (the console takes them), before poll().
+  void set_say(std::function<void(const std::string &)> say) { say_ = std::move(say); }
   // Ends a song that plays (every player stopped and joined, its motors given back).
   // Called from: run_live, before session.stop().
   void stop(LiveSession &session);
@@ -53,6 +58,8 @@ class SetlistRunner {
   size_t size() const { return items_.size(); }
   const SetlistItem &item() const { return items_[position_]; }
   bool song_playing() const { return !threads_.empty(); }
+  // The pool motors the song plays now (bit m: motor m), 0 without a song.
+  uint32_t song_motors() const { return song_playing() ? plans_[position_].pool_motors : 0; }
 
  private:
   // A song item's plan split per board: each board's events (board motor = its song_ids[i])
@@ -78,6 +85,10 @@ class SetlistRunner {
   std::unique_ptr<StartGate> gate_;
   std::vector<std::unique_ptr<Player>> players_;
   std::vector<std::thread> threads_;
+  std::function<void(const std::string &)> say_ = [](const std::string &line) {
+    std::printf("live: %s\n", line.c_str());
+    std::fflush(stdout);
+  };
 };
 
 }  // namespace stepchoir

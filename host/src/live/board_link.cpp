@@ -135,6 +135,7 @@ void BoardLink::attach(Link *link) {
   stats_.write_failed.store(false);
   stats_.read_failed.store(false);
   stats_.last_status_us.store(0);
+  stats_.reconnects.fetch_add(1);
   attach_gen_.store(detach_gen_.load(), std::memory_order_release);
 }
 
@@ -371,10 +372,15 @@ void BoardLink::reader_loop() {
           stats_.status_frames_bad.store(s.head.frames_bad, std::memory_order_relaxed);
           stats_.status_overruns.store(s.head.uart_overruns, std::memory_order_relaxed);
           stats_.watchdog_tripped.store(s.head.flags & sc::kStatusWatchdogTripped, std::memory_order_relaxed);
-          uint8_t sounding = 0;
-          for (size_t m = 0; m < s.motors.size() && m < 8; ++m)
+          uint8_t sounding = 0, faults = 0;
+          for (size_t m = 0; m < s.motors.size() && m < sc::kMaxMotors; ++m) {
             if (s.motors[m].flags & sc::kMotorSounding) sounding = static_cast<uint8_t>(sounding | (1u << m));
+            if (s.motors[m].flags & sc::kMotorEndstopFault) faults = static_cast<uint8_t>(faults | (1u << m));
+            stats_.position_steps[m].store(s.motors[m].position_steps, std::memory_order_relaxed);
+          }
           stats_.sounding_mask.store(sounding, std::memory_order_relaxed);
+          stats_.endstop_fault_mask.store(faults, std::memory_order_relaxed);
+          stats_.reversals.store(s.head.reversals, std::memory_order_relaxed);
           stats_.last_status_us.store(monotonic_us(), std::memory_order_relaxed);
         } catch (const std::exception &) {
         }

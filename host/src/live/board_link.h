@@ -26,6 +26,7 @@
 
 #include <readerwriterqueue/readerwriterqueue.h>
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -63,6 +64,14 @@ struct BoardStats {
   std::atomic<uint32_t> status_frames_bad{0}, status_overruns{0};
   std::atomic<bool> watchdog_tripped{false};
   std::atomic<uint8_t> sounding_mask{0};   // bit m: the board said motor m is sounding
+  // From the latest status reply too (about once a second, kStatusEveryMs), by the board's own
+  // motor index: each carriage's position (steps, 0 .. travel_steps with soft limits), which
+  // motors' switches are faulty, and the board's reversals at a switch or a soft limit since
+  // it started (all motors; wraps at 65536).
+  std::array<std::atomic<int32_t>, sc::kMaxMotors> position_steps{};
+  std::atomic<uint8_t> endstop_fault_mask{0};
+  std::atomic<uint16_t> reversals{0};
+  std::atomic<uint32_t> reconnects{0};     // links attach() handed over after a failed one
 };
 
 // One board of the pool: its link (owned by the caller, alive until the session stops) and

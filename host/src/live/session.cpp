@@ -161,6 +161,7 @@ void LiveSession::engine_loop() {
         const uint64_t now = monotonic_us();
         engine_latency_->record(now > ev.timestamp_us ? now - ev.timestamp_us : 0);
         route(out, n, ev.timestamp_us);
+        recent_.record(ev);
         events_.fetch_add(1, std::memory_order_relaxed);
       } while (!stop_engine_.load(std::memory_order_relaxed) && midi_queue_.try_dequeue(ev));
     }

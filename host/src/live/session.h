@@ -35,6 +35,7 @@
 #include "live/allocator.h"
 #include "live/board_link.h"
 #include "live/coalescer.h"
+#include "live/event_log.h"
 #include "live/latency_histogram.h"
 #include "live/link_budget.h"
 #include "live/midi_in.h"
@@ -146,11 +147,17 @@ class LiveSession {
   // Per pool motor: the period it plays now (board timer ticks q8, bend and vibrato included),
   // 0 when silent. Called from: any thread.
   uint32_t motor_period_q8(size_t m) const noexcept;
+  // Per pool motor: its board (an index of board_stats) and the board's own number for it.
+  // Called from: any thread (displays).
+  size_t motor_board(size_t m) const noexcept { return board_of_[m]; }
+  uint8_t board_motor(size_t m) const noexcept { return board_motor_[m]; }
   size_t motor_count() const noexcept { return motor_count_; }
   size_t board_count() const noexcept { return boards_.size(); }
   const BoardStats &board_stats(size_t b) const { return boards_[b]->stats(); }
   // MIDI events the engine applied.
   uint64_t events() const noexcept { return events_.load(std::memory_order_relaxed); }
+  // The latest of them (the console's "last events"). Called from: any thread.
+  const EventLog &recent_events() const noexcept { return recent_; }
   // Threads (engine and writers) that got real-time scheduling; valid once they run.
   int realtime_threads() const noexcept { return realtime_.load(); }
   // MIDI event arrival -> its frame handed to the OS (write() returned), per motor entry.
@@ -205,6 +212,7 @@ class LiveSession {
   uint64_t stage_sent_ = 0;              // stage commands the main thread queued (its own)
   bool queue_stage(const StageCommand &c);  // main thread
   std::atomic<uint64_t> events_{0};
+  EventLog recent_;                       // written by the engine thread
   std::atomic<bool> stop_engine_{false};
   std::thread engine_;
   bool started_ = false, stopped_ = false;
