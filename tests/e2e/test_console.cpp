@@ -4,6 +4,7 @@
 // middle of their rails, a key's motor row with its note and Hz, the octave key's transpose,
 // the panic's message, the terminal given back after q. Read from the trace's STEP edges: the note after the octave key sounds an
 // octave up, and the panic key silences every motor at once while the keys are still down.
+// `stepchoir play` on a virtual board's pty: a song motor's note and Hz, paused on space, q.
 #include <catch2/catch.hpp>
 
 #include <chrono>
@@ -83,13 +84,13 @@ class TmuxSession {
   std::string socket_, conf_;
 };
 
-// A shell command for a tmux pane: `stepchoir ARGS` on the test's JACK server, then its exit
-// status ("EXIT=0") and whether the terminal reads lines and echoes again ("TTY: icanon echo");
-// then the pane stays, with its screen.
-std::string stepchoir_in_pane(const std::string &args) {
+// A shell command for a tmux pane: `stepchoir ARGS` (jack: on the test's JACK server), then its
+// exit status ("EXIT=0") and whether the terminal reads lines and echoes again ("TTY: icanon
+// echo"); then the pane stays, with its screen.
+std::string stepchoir_in_pane(const std::string &args, bool jack = true) {
   const char *jack_server = std::getenv("JACK_DEFAULT_SERVER");
-  if (!jack_server) throw std::runtime_error("no JACK server");
-  return std::string("env JACK_DEFAULT_SERVER=") + jack_server + " " + STEPCHOIR_BIN + " " + args +
+  if (jack && !jack_server) throw std::runtime_error("no JACK server");
+  return std::string(jack ? std::string("env JACK_DEFAULT_SERVER=") + jack_server + " " : "") + STEPCHOIR_BIN + " " + args +
          "; echo \"EXIT=$?\"; echo \"TTY: $(stty -a | tr ' ;' '\\n\\n' | grep -x -e icanon -e -icanon -e echo -e -echo | "
          "tr '\\n' ' ')\"; sleep 600";
 }
@@ -235,4 +236,37 @@ TEST_CASE("jam: the console under tmux shows the song's place, its clock and the
   expect_row(screen, 2, " 2  A4      440.00     +0  |");
   rig.keys.send(stepchoir::note_off(0, 69));
   quit_and_check_terminal(tmux, "jam: stopped, every motor silent");
+}
+
+// Whether some motor's row (0-3) shows a note and its Hz: " 0  A4      440.00    +0   ...".
+bool some_motor_sounds(const std::string &screen) {
+  size_t at = 0;
+  for (size_t end; (end = screen.find('\n', at)) != std::string::npos; at = end + 1) {
+    const std::string row = screen.substr(at, end - at);
+    if (row.size() > 20 && row[0] == ' ' && row[1] >= '0' && row[1] <= '3' && row.compare(2, 2, "  ") == 0 &&
+        row[4] >= 'A' && row[4] <= 'G' && row.find('.') != std::string::npos)
+      return true;
+  }
+  return false;
+}
+
+TEST_CASE("play: the console under tmux shows the song's motors, pauses on space and quits on q",
+          "[e2e][play][console]") {
+  const std::string trace = e2e::scratch("console-play.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace, "--quiet", "--no-measure"});
+  TmuxSession tmux(stepchoir_in_pane(std::string("play ") + STEPCHOIR_SONGS_DIR + "/canon.sng --port " + vb.pty(), false),
+                   80, 24);
+  std::string screen = tmux.wait_until([](const std::string &s) {
+    return s.find("stepchoir play  playing 0:") != std::string::npos && some_motor_sounds(s);
+  });
+  expect_text(screen, "stepchoir play  playing 0:");
+  expect_text(screen, "space:pause/resume");
+  {
+    INFO("the screen:\n" << screen);
+    CHECK(some_motor_sounds(screen));
+  }
+  tmux.key("Space");
+  screen = tmux.wait_for("stepchoir play  paused 0:");
+  expect_text(screen, "stepchoir play  paused 0:");
+  quit_and_check_terminal(tmux, "play: stopped, every motor silent");
 }

@@ -1,7 +1,7 @@
 // test_console.cpp: what the live console reads and shows, without a terminal: the board's
 // status replies published in BoardStats, the engine's record of the latest MIDI events, the
 // console's model (pitch and cents from periods, links, warnings), its layout at 80x24 and
-// smaller, the plain status line, and what each key does.
+// smaller, the plain status line, what each key does, and play's model from its plan's events.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -415,4 +415,63 @@ TEST_CASE("console: the sampler reads a running session", "[live][console]") {
   CHECK(lines[0].text == "stepchoir live  preset -  transpose +0  setlist 2/3 encore");
   CHECK(lines[5].text.find("| song") != std::string::npos);
   CHECK(m.warnings == std::vector<std::string>{"fake-port: the board does not answer"});
+}
+
+TEST_CASE("console: play's rows from the plan's events at the player's position", "[console][play]") {
+  // Board A: motors 0 and 1; board B: motor 0. Events by board, in time order, board motor numbers.
+  auto on = [](double t, uint8_t m, double pitch) { return PlanEvent{t, m, false, pitch}; };
+  auto off = [](double t, uint8_t m) { return PlanEvent{t, m, true, 0}; };
+  const std::vector<std::vector<PlanEvent>> events{
+      {on(0.0, 0, 69), on(0.5, 1, 60), off(1.0, 0), on(1.5, 0, 72.2), off(2.0, 1)},
+      {on(1.0, 0, 57)}};
+  std::vector<PlayBoard> boards{{"/dev/ttyACM0", 2, {}, false}, {"/dev/ttyACM1", 1, {}, false}};
+  boards[1].stats.frames_sent = 42;
+  boards[1].stats.clock_samples = 3;
+  boards[1].stats.ppm = 2493.7;
+
+  ConsoleModel m = play_model(events, boards, 0.7, 440.0);
+  REQUIRE(m.motors.size() == 3);
+  CHECK(m.motors[0].note == 69);
+  CHECK(m.motors[0].hz == Approx(440.0));
+  CHECK(m.motors[1].note == 60);
+  CHECK(m.motors[1].hz == Approx(note_hz(60)));
+  CHECK(m.motors[2].note == -1);  // board B's first note comes at 1.0 s
+  CHECK(m.motors[2].number == 2);
+  CHECK(m.motors[2].board == "/dev/ttyACM1");
+  REQUIRE(m.links.size() == 2);
+  CHECK(m.links[1].frames_sent == 42);
+  CHECK(m.links[1].has_clock);
+  CHECK_FALSE(m.links[0].has_clock);
+  CHECK(m.warnings.empty());
+
+  m = play_model(events, boards, 1.2, 440.0);  // motor 0 silent, board B sounding
+  CHECK(m.motors[0].note == -1);
+  CHECK(m.motors[1].note == 60);
+  CHECK(m.motors[2].note == 57);
+  m = play_model(events, boards, 2.5, 432.0);  // a pitch between notes, another A4
+  CHECK(m.motors[0].note == 72);
+  CHECK(m.motors[0].cents == Approx(20.0));
+  CHECK(m.motors[0].hz == Approx(note_hz(72.2, 432.0)));
+  CHECK(m.motors[1].note == -1);
+
+  // A lost board and late entries, in plain words; the screen: no MIDI, latency or preset.
+  boards[1].lost = true;
+  boards[0].stats.late_reported = 3;
+  m = play_model(events, boards, 2.5, 440.0);
+  m.song = "playing 0:02 / 0:03";
+  REQUIRE(m.warnings.size() == 2);
+  CHECK(m.warnings[0].find("/dev/ttyACM0: 3 notes came late") == 0);
+  CHECK(m.warnings[1].find("/dev/ttyACM1 is lost") == 0);
+  CHECK(m.links[1].health == "lost");
+  ConsoleFooter footer;
+  footer.keys = "keys";
+  const std::vector<ScreenLine> lines = console_lines(m, footer, 24, 80);
+  CHECK(lines[0].text == "stepchoir play  playing 0:02 / 0:03");
+  CHECK(lines[2].text == " 0  C5      529.33    +20   ttyACM0");
+  CHECK(lines[2].text.find("ttyACM0") != std::string::npos);
+  for (const ScreenLine &l : lines) {
+    CHECK(l.text.find("MIDI") == std::string::npos);
+    CHECK(l.text.find("latency") == std::string::npos);
+  }
+  CHECK(lines.back().text == "keys");
 }

@@ -1,9 +1,6 @@
 // console.cpp: the performer's console on a terminal, with curses (see console.h).
 #include "cli/console.h"
 
-#include <unistd.h>
-
-#include <stdexcept>
 #include <utility>
 
 #include "cli/learn_prompt.h"
@@ -14,27 +11,8 @@
 namespace stepchoir {
 namespace {
 
-constexpr int kEscape = 27;
-constexpr int kEscapeDelayMs = 50;  // a lone Esc is a panic this soon; an arrow's bytes come closer
+constexpr int kEscape = Terminal::kEscape;
 constexpr size_t kNoticesKept = 20;
-
-// Colour pairs, by LineStyle (0: the terminal's own colours).
-constexpr short kPairOf[] = {0, 0, 0, 1, 0, 2, 3, 0};
-
-// curses attributes for a style: colours where the terminal has them, else bold, dim, reverse.
-attr_t attributes(LineStyle s, bool colour) {
-  const short pair = kPairOf[static_cast<int>(s)];
-  attr_t a = colour && pair ? COLOR_PAIR(pair) : A_NORMAL;
-  switch (s) {
-    case LineStyle::kTitle:
-    case LineStyle::kKeys: return a | A_REVERSE;
-    case LineStyle::kHeading: return a | A_UNDERLINE;
-    case LineStyle::kSounding:
-    case LineStyle::kWarning: return a | A_BOLD;
-    case LineStyle::kMuted: return a | A_DIM;
-    default: return a;
-  }
-}
 
 }  // namespace
 
@@ -71,43 +49,7 @@ KeyCommand command_for_key(int key, const std::vector<size_t> &motor_numbers) {
 
 Console::Console(std::string learn_path, std::vector<size_t> motor_numbers)
     : learn_path_(std::move(learn_path)), motor_numbers_(std::move(motor_numbers)) {
-  if (!::isatty(0) || !::isatty(1)) throw std::runtime_error("the console needs a terminal");
-  SCREEN *screen = newterm(nullptr, stdout, stdin);
-  if (!screen) throw std::runtime_error("the console cannot use this terminal (TERM)");
-  set_term(screen);
-  cbreak();
-  noecho();
-  nonl();
-  keypad(stdscr, TRUE);
-  set_escdelay(kEscapeDelayMs);
-  curs_set(0);
-  if (has_colors()) {
-    start_color();
-    use_default_colors();
-    init_pair(1, COLOR_GREEN, -1);   // a sounding motor
-    init_pair(2, COLOR_RED, -1);     // warnings
-    init_pair(3, COLOR_CYAN, -1);    // messages
-  }
   footer_.keys = kKeysHelp;
-  std::fflush(stderr);
-  stderr_log_ = std::tmpfile();
-  if (stderr_log_) {
-    saved_stderr_ = ::dup(2);
-    ::dup2(::fileno(stderr_log_), 2);
-  }
-}
-
-Console::~Console() {
-  endwin();
-  delscreen(set_term(nullptr));
-  if (!stderr_log_) return;
-  std::fflush(stderr);
-  ::dup2(saved_stderr_, 2);
-  ::close(saved_stderr_);
-  std::rewind(stderr_log_);
-  char buf[4096];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, stderr_log_)) > 0;) std::fwrite(buf, 1, n, stderr);
-  std::fclose(stderr_log_);
 }
 
 bool Console::handle_keys(LiveSession &session, int timeout_ms) {
@@ -115,11 +57,7 @@ bool Console::handle_keys(LiveSession &session, int timeout_ms) {
     notice("learn: " + save_learned(learn_path_, *b));
     footer_.learning.clear();
   }
-  wtimeout(stdscr, timeout_ms);
-  for (int key = wgetch(stdscr); key != ERR; key = wgetch(stdscr)) {
-    apply(session, key);
-    wtimeout(stdscr, 0);
-  }
+  for (int key = terminal_.key(timeout_ms); key != Terminal::kNoKey; key = terminal_.key(0)) apply(session, key);
   return !quit_;
 }
 
@@ -182,19 +120,9 @@ void Console::notice(const std::string &line) {
 }
 
 void Console::draw(const ConsoleModel &m) {
-  const int rows = getmaxy(stdscr), cols = getmaxx(stdscr);
-  if (rows <= 0 || cols <= 0) return;
-  const std::vector<ScreenLine> lines = console_lines(m, footer_, static_cast<size_t>(rows), static_cast<size_t>(cols));
-  const bool colour = has_colors();
-  werase(stdscr);
-  for (size_t i = 0; i < lines.size(); ++i) {
-    wattrset(stdscr, static_cast<int>(attributes(lines[i].style, colour)));
-    // The bottom right cell stays empty: writing it would scroll some terminals.
-    const int room = static_cast<int>(i) == rows - 1 ? cols - 1 : cols;
-    mvwaddnstr(stdscr, static_cast<int>(i), 0, lines[i].text.c_str(), room);
-  }
-  wattrset(stdscr, A_NORMAL);
-  wrefresh(stdscr);
+  const size_t rows = terminal_.rows(), cols = terminal_.cols();
+  if (rows == 0 || cols == 0) return;
+  terminal_.draw(console_lines(m, footer_, rows, cols));
 }
 
 }  // namespace stepchoir

@@ -1,4 +1,4 @@
-// console.h: the performer's console: a full-screen terminal UI (curses) for `stepchoir live`
+// console.h: the performer's console: a full-screen terminal UI (terminal.h) for `stepchoir live`
 // and `stepchoir jam`, drawn from a ConsoleModel (console_model.h, laid out by
 // console_view.h), with keys for the stage.
 //
@@ -14,12 +14,12 @@
 #ifndef STEPCHOIR_HOST_CLI_CONSOLE_H
 #define STEPCHOIR_HOST_CLI_CONSOLE_H
 
-#include <cstdio>
 #include <string>
 #include <vector>
 
 #include "cli/console_model.h"
 #include "cli/console_view.h"
+#include "cli/terminal.h"
 #include "live/session.h"
 #include "live/stage.h"
 
@@ -42,18 +42,13 @@ class Console {
  public:
   static constexpr int kFrameMs = 33;  // at most 30 redraws a second
 
-  // Takes the terminal: the alternate screen, no echo, keys one at a time (Ctrl-C and
-  // Ctrl-Z stay signals), a hidden cursor; stderr goes to a temporary file until the console
-  // ends (a library's stray message would scribble on the screen), then is printed.
+  // Takes the terminal (terminal.h) until the console ends.
   // learn_path: the rig file learned controls go to ("" : learning says why it cannot);
   // motor_numbers: the rig's number of each pool motor (live: 0, 1, ...; jam: the keyboard's,
   // counted with the song's).
   // Throws std::runtime_error when the terminal cannot (no terminal, unknown TERM).
   // Called from: run_live and jam, on the main thread, once the session runs.
   Console(std::string learn_path, std::vector<size_t> motor_numbers);
-  // Gives the terminal back as it was (also on an exception or a signal's stop), then prints
-  // what stderr got meanwhile.
-  ~Console();
   Console(const Console &) = delete;
   Console &operator=(const Console &) = delete;
 
@@ -74,8 +69,7 @@ class Console {
   std::vector<size_t> motor_numbers_;
   ConsoleFooter footer_;
   bool quit_ = false;
-  int saved_stderr_ = -1;
-  std::FILE *stderr_log_ = nullptr;
+  Terminal terminal_;
 };
 
 }  // namespace stepchoir

@@ -1,6 +1,8 @@
 // console_model.cpp: the console's snapshot of a live session (see console_model.h).
 #include "cli/console_model.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "core/pitch.h"
@@ -180,6 +182,55 @@ std::string status_line(const ConsoleModel &m) {
   std::snprintf(lat, sizeof lat, "| %llu events, latency p50 %llu us p99 %llu us", static_cast<unsigned long long>(m.events),
                 static_cast<unsigned long long>(m.latency_p50_us), static_cast<unsigned long long>(m.latency_p99_us));
   return line + lat;
+}
+
+ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const std::vector<PlayBoard> &boards,
+                        double position_s, double a4_hz) {
+  ConsoleModel m;
+  m.command = "play";
+  for (size_t b = 0; b < boards.size(); ++b) {
+    const PlayBoard &pb = boards[b];
+    // Each motor's latest event at or before the position: from the last such event back.
+    std::vector<ConsoleMotor> rows(pb.motors);
+    std::vector<bool> found(pb.motors, false);
+    size_t left = pb.motors;
+    static const std::vector<PlanEvent> kNone;
+    const std::vector<PlanEvent> &ev = b < events.size() ? events[b] : kNone;
+    auto it = std::upper_bound(ev.begin(), ev.end(), position_s,
+                               [](double t, const PlanEvent &e) { return t < e.time_s; });
+    while (left > 0 && it != ev.begin()) {
+      const PlanEvent &e = *--it;
+      if (e.motor >= pb.motors || found[e.motor]) continue;
+      found[e.motor] = true;
+      --left;
+      if (e.silent) continue;
+      rows[e.motor].note = static_cast<int>(std::lround(e.pitch));
+      rows[e.motor].hz = note_hz(e.pitch, a4_hz);
+      rows[e.motor].cents = (e.pitch - rows[e.motor].note) * 100.0;
+    }
+    for (ConsoleMotor &r : rows) {
+      r.number = m.motors.size();
+      r.board = pb.name;
+      m.motors.push_back(r);
+    }
+    const PlayerStats &s = pb.stats;
+    ConsoleLink l;
+    l.name = pb.name;
+    l.health = pb.lost ? "lost" : "ok";
+    l.healthy = !pb.lost;
+    l.frames_sent = s.frames_sent;
+    l.board_errors = s.queue_full + s.other_errors + s.late_reported;
+    l.reconnects = static_cast<uint32_t>(s.reconnects);
+    l.has_clock = s.clock_samples > 0;
+    l.clock_ppm = s.ppm;
+    l.clock_residual_us = s.residual_us;
+    m.links.push_back(l);
+    if (pb.lost) m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
+    if (s.late_reported > 0)
+      m.warnings.push_back(pb.name + ": " + std::to_string(s.late_reported) +
+                           " notes came late (the host fell behind: try a longer --lead-ms)");
+  }
+  return m;
 }
 
 }  // namespace stepchoir

@@ -18,6 +18,8 @@
 #include "live/allocator.h"
 #include "live/board_link.h"
 #include "live/session.h"
+#include "player/plan.h"
+#include "player/player.h"
 
 namespace stepchoir {
 
@@ -32,6 +34,7 @@ struct ConsoleMotor {
   uint32_t travel_steps = 0;   // the rail (config/rig.h motor_travel)
   bool switch_fault = false;   // the board ignores its stuck end switch
   bool song = false;           // a setlist song plays it, not the keyboard
+  std::string board;           // play: the port of the board it is on ("" : not shown)
 };
 
 struct ConsoleLink {
@@ -56,7 +59,7 @@ struct ConsoleEvent {
 };
 
 struct ConsoleModel {
-  std::string command = "live";       // live | jam
+  std::string command = "live";       // live | jam | play (play: no MIDI, latency, preset, setlist)
   std::string song;                   // jam: where the song is ("playing 0:12 / 1:30"); live: ""
   std::vector<ConsoleMotor> motors;   // the pool's, in pool order
   std::vector<ConsoleLink> links;     // by board
@@ -146,6 +149,23 @@ class ConsoleSampler {
   uint64_t last_us_ = 0;
   WarningTracker warnings_;
 };
+
+// What `stepchoir play` knows of one board while the song plays.
+struct PlayBoard {
+  std::string name;      // the port
+  size_t motors = 0;     // its motors that play the song (plan motors, in board order)
+  PlayerStats stats;     // its player's, as last published
+  bool lost = false;     // its player gave up (the board is gone): its notes are dropped
+};
+
+// The play console's model at position_s of the song: a row a song motor of every board (numbered
+// across the boards in order), its note and Hz those of its latest event at or before position_s
+// (A4 at a4_hz; silent: note -1); a link row a board from its player's stats (frames, errors,
+// reconnects, song clock; frames_per_s 0: the caller rates them); warnings for late entries and
+// lost boards. events: by board, plan_events() with the board's motor numbers, in time order.
+// Pure. Called from: PlayConsole, tests.
+ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const std::vector<PlayBoard> &boards,
+                        double position_s, double a4_hz);
 
 // The plain status line (no console: --plain, or stdout not a terminal): each motor's note,
 // each link's health and frames, events and latency. Pure.

@@ -35,7 +35,9 @@ std::string short_name(const std::string &path) {
 }
 
 std::string title(const ConsoleModel &m) {
-  std::string t = "stepchoir " + m.command + (m.song.empty() ? "" : "  " + m.song) + "  preset ";
+  std::string t = "stepchoir " + m.command + (m.song.empty() ? "" : "  " + m.song);
+  if (m.command == "play") return t;
+  t += "  preset ";
   if (m.preset < 0)
     t += "-";
   else
@@ -52,10 +54,11 @@ ScreenLine motor_line(const ConsoleMotor &mo, size_t cols) {
                             sounding ? format("%+.0f", std::fabs(mo.cents) < 0.5 ? 0.0 : mo.cents).c_str() : "");
   const size_t room = cols > kRowFixed + kRowFlags ? cols - kRowFixed - kRowFlags : 0;
   const size_t bar = std::min(room, kBarMax);
-  if (bar >= kBarMin) line += rail_bar(mo, bar);
+  if (bar >= kBarMin && mo.board.empty()) line += rail_bar(mo, bar);  // play: the board, no rail
   if (mo.muted) line += " muted";
   if (mo.song) line += " song";
   if (mo.switch_fault) line += " switch stuck";
+  if (!mo.board.empty()) line += " " + short_name(mo.board);
   return {line, mo.muted ? LineStyle::kMuted : sounding ? LineStyle::kSounding : LineStyle::kNormal};
 }
 
@@ -121,14 +124,17 @@ std::string rail_bar(const ConsoleMotor &m, size_t width) {
 std::vector<ScreenLine> console_lines(const ConsoleModel &m, const ConsoleFooter &f, size_t rows, size_t cols) {
   enum Part { kHeading, kMotors, kLinks, kLatency, kMidi, kWarnings, kLearn, kNotices, kParts };
   std::vector<ScreenLine> part[kParts];
-  part[kHeading].push_back({" #  note        Hz  cents  rail", LineStyle::kHeading});
+  part[kHeading].push_back({m.command == "play" ? " #  note        Hz  cents  board" : " #  note        Hz  cents  rail",
+                            LineStyle::kHeading});
   for (const ConsoleMotor &mo : m.motors) part[kMotors].push_back(motor_line(mo, cols));
   for (const ConsoleLink &l : m.links) add_link_lines(l, &part[kLinks]);
-  part[kLatency].push_back({format("latency p50 %llu us  p99 %llu us  %llu events",
+  const bool live = m.command != "play";  // play: no MIDI input, no latency
+  if (live)
+    part[kLatency].push_back({format("latency p50 %llu us  p99 %llu us  %llu events",
                                    static_cast<unsigned long long>(m.latency_p50_us),
                                    static_cast<unsigned long long>(m.latency_p99_us),
                                    static_cast<unsigned long long>(m.events))});
-  part[kMidi].push_back({midi_line(m), m.midi_input.empty() ? LineStyle::kWarning : LineStyle::kNormal});
+  if (live) part[kMidi].push_back({midi_line(m), m.midi_input.empty() ? LineStyle::kWarning : LineStyle::kNormal});
   for (const std::string &w : m.warnings) part[kWarnings].push_back({"! " + w, LineStyle::kWarning});
   if (f.typing) part[kLearn] = action_lines(cols);
   if (!f.learning.empty())

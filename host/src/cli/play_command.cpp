@@ -20,6 +20,8 @@
 #include "board/vboard_child.h"
 #include "cli/jam_console.h"
 #include "cli/jam_link.h"
+#include "cli/plan_options.h"
+#include "cli/play_console.h"
 #include "cli/play_report.h"
 #include "config/board_memory.h"
 #include "config/config.h"
@@ -45,49 +47,6 @@ std::atomic<bool> g_pause{false};
 // host stalled for up to half a second still keeps ahead of it.
 constexpr double kRenderSpeed = 2.0;
 constexpr double kRenderLeadS = 1.0;
-
-// The plan options from the command line, for the board motors ids (in the plan's order) whose
-// musical settings (the rig file's) are `music`. Called from: PlayCommand::run. Throws
-// std::runtime_error for a bad --drums, --keep or --voices.
-PlanOptions plan_options(const SongSelection &sel, const std::vector<uint8_t> &ids, std::vector<MotorConfig> music) {
-  PlanOptions p;
-  p.tempo_scale = sel.tempo;
-  p.transpose = sel.transpose;
-  p.start_s = sel.start_s;
-  p.min_note_s = sel.min_note_ms / 1e3;
-  p.tracks = sel.tracks;
-  p.mute_tracks = sel.mute_tracks;
-  for (int c : sel.channels) p.channels.push_back(c - 1);
-  for (int c : sel.mute_channels) p.mute_channels.push_back(c - 1);
-  p.motors = std::move(music);
-  if (sel.drums >= 0) {
-    const auto it = std::find(ids.begin(), ids.end(), sel.drums);
-    if (it == ids.end())
-      throw std::runtime_error("--drums " + std::to_string(sel.drums) + ": not one of the song's motors");
-    p.drum_motor = static_cast<int>(it - ids.begin());
-  }
-  for (const std::string &k : sel.keep) {
-    if (k == "melody") p.keep.push_back(Role::kMelody);
-    else if (k == "bass") p.keep.push_back(Role::kBass);
-    else if (k == "inner") p.keep.push_back(Role::kInner);
-    else throw std::runtime_error("--keep: '" + k + "': expected melody, bass or inner");
-  }
-  for (const std::string &v : sel.voices) {
-    LineSelector line;
-    size_t used = 0;
-    int value = -1;
-    try {
-      if (v.size() > 1 && (v[0] == 't' || v[0] == 'c')) value = std::stoi(v.substr(1), &used);
-    } catch (const std::exception &) {
-    }
-    line.by_channel = !v.empty() && v[0] == 'c';
-    if (value < 0 || used + 1 != v.size() || (line.by_channel && (value < 1 || value > 16)))
-      throw std::runtime_error("--voices: '" + v + "': expected tN (track N) or cN (MIDI channel N, 1-16)");
-    line.value = line.by_channel ? value - 1 : value;
-    p.voices.push_back(line);
-  }
-  return p;
-}
 
 // Runs `prog` beside this program with args, waits; its exit status (or -1).
 // Called from: render (stepchoir-render).
@@ -154,7 +113,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
       ->check(CLI::Range(0.1, 30.0))->default_val(c->sync_s);
   c->play->add_flag("--loop", c->loop, "Start again at the end (Ctrl-C stops)");
   c->play->add_flag("--no-auto-tune", c->no_auto_tune, "Periods from the board's nominal clock, not the measured one");
-  c->play->add_flag("--quiet,-q", c->quiet, "No progress line");
+  c->play->add_flag("--quiet,-q", c->quiet, "No console and no progress line");
+  c->play->add_flag("--plain", c->plain, "The progress line, not the console, on a terminal");
   c->play->add_option("--dry-run", c->dry_run_motors, "Print which motor plays what for N motors; play nothing")
       ->check(CLI::Range(1, 32));
   c->jam = app.add_subcommand("jam", "Play a song on some motors and a MIDI keyboard on the others");
@@ -357,6 +317,12 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     // clocks; a board lost mid-song drops its notes while the others play on.
     StartGate gate(boards.size());
     std::vector<std::unique_ptr<Player>> players;
+    std::unique_ptr<PlayConsole> play_console;  // play on a terminal: the console (its keys: play's)
+    if (!jamming && !rendering && !quiet && !plain) {
+      std::vector<PlayBoard> pbs;
+      for (const BoardRun &r : boards) pbs.push_back(PlayBoard{r.path, r.song_ids.size(), {}, false});
+      play_console = open_play_console(pbs, events, rig.config.a4_hz);
+    }
     std::vector<std::unique_ptr<Board>> song_board_for_jam;  // jam: the live session's link stays open
     for (size_t b = 0; b < boards.size(); ++b) {
       PlayerOptions po;
@@ -395,25 +361,29 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
     }
     std::optional<Keys> keys;
-    if (!console) keys.emplace();
-    const bool show = !quiet && !rendering && ::isatty(2) && !console;
+    if (!console && !play_console) keys.emplace();
+    const bool show = !quiet && !rendering && ::isatty(2) && !console && !play_console;
     std::vector<char> ok(players.size(), 1);
     std::vector<std::thread> others;
     for (size_t b = 1; b < players.size(); ++b)
       others.emplace_back([&, b] {
         ok[b] = players[b]->run(stop, g_pause, [&, b](const PlayerProgress &p) {
           if (console) console->publish_clock(b, *p.stats);
+          if (play_console) play_console->publish(b, *p.stats);
         });
+        if (play_console) play_console->ended(b, ok[b]);
         gate.leave(b);
       });
     ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) {
       if (console && !console->update(*session, p, midi_in.get())) stop = true;
+      if (play_console && !play_console->update(p)) stop = true;
       if (keys && keys->poll()) stop = true;
       if (show) print_progress(p);
     });
     gate.leave(0);
     for (std::thread &t : others) t.join();
     console.reset();  // the terminal as it was, before the reports
+    play_console.reset();
     if (show) std::fprintf(stderr, "\n");
     if (jamming) {
       midi_in.reset();  // no more callbacks

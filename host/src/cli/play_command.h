@@ -43,7 +43,7 @@ struct PlayCommand {
   std::string midi = "virtual", midi_api = "alsa", policy = "poly";
   std::vector<int> song_motors{0, 1};  // pool numbers: the boards' motors in board order
   bool midi_clock = false;             // the song follows the MIDI input's clock
-  bool plain = false;                  // the progress line, not the console, on a terminal
+  bool plain = false;                  // play, jam: the progress line, not the console, on a terminal
 
   // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C
   // (the q key sets it too).
