@@ -131,12 +131,17 @@ struct BridgeModel {
   std::function<double(double)> lag_us = [](double) { return 0.0; };
   std::mt19937 rng{9};
 
+  double frame_phase_us = 370;  // where the host's 1 ms USB frames start
+
+  // From a frame's start to the board's stamp of the request it carries: 6 bytes at 115,200 baud.
+  static double stamp_after_frame_us() { return 6 * 87; }
+
   // One round trip sent at host time send_us: fed to sync; false when sync refused it.
   bool round_trip(ClockSync &sync, double send_us) {
     std::uniform_real_distribution<double> sched(0, 300);
-    const double frame_phase_us = 370, flush_period_us = 4096 * (1 + 60e-6);
+    const double flush_period_us = 4096 * (1 + 60e-6);
     const double out = std::ceil((send_us - frame_phase_us) / 1000) * 1000 + frame_phase_us;
-    const double stamp = out + 6 * 87;  // 6 bytes at 115,200 baud
+    const double stamp = out + stamp_after_frame_us();
     const double ready = stamp + 6 * 87;
     const double flush = std::ceil(ready / flush_period_us) * flush_period_us;
     const double in = std::ceil((flush - frame_phase_us) / 1000) * 1000 + frame_phase_us;
@@ -172,6 +177,34 @@ TEST_CASE("clock: through a 16U2 bridge's 1 ms frames and 4 ms batches the rate 
                 worst_after_2s, worst_after_10s);
     CHECK(worst_after_2s < 0.5);
     CHECK(worst_after_10s < 0.1);
+  }
+}
+
+TEST_CASE("clock: through a 16U2 bridge the board's time is the quickest way out's, whatever the frames' phase",
+          "[player]") {
+  // Two boards' notes line up only if each fit lands on the same point of its link: the
+  // request that catches its USB frame at once (no wait), stamped as its bytes arrive. The
+  // requests go out at the player's golden-ratio steps through each frame.
+  for (double phase_us : {0.0, 370.0, 810.0}) {
+    for (double ppm : {-1500.0, 2000.0}) {
+      ClockSync sync(16e6);
+      BridgeModel link{ppm};
+      link.frame_phase_us = phase_us;
+      double worst_us = 0, dither = 0;
+      for (int i = 0; i < 1500; ++i) {  // 30 s at 50 round trips a second
+        dither = std::fmod(dither + 0.6180339887, 1.0);
+        const double t = 1e6 + i * 20000.0 + dither * 1000;
+        REQUIRE(link.round_trip(sync, t));
+        if (i < 150) continue;  // the first 3 s
+        const double quickest_stamp_us = t + link.stamp_after_frame_us();
+        const double est_us = (sync.ticks_at(t) - 7e8) / (16.0 * (1 + ppm / 1e6));
+        worst_us = std::max(worst_us, std::fabs(est_us - quickest_stamp_us));
+      }
+      INFO("frames at phase " << phase_us << " us, crystal " << ppm << " ppm: worst " << worst_us << " us");
+      std::printf("clock, 16U2 link, frames at %.0f us, crystal %+.0f ppm: the board's time within %.0f us\n",
+                  phase_us, ppm, worst_us);
+      CHECK(worst_us < 150);
+    }
   }
 }
 

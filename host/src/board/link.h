@@ -30,6 +30,8 @@ class Link {
   // 0 when write() itself hands the bytes to the OS (every port) or it did not happen in time.
   // Called from: the song player, after a clock request's write (its true send time).
   virtual uint64_t written_at_us() { return 0; }
+  // True for a link whose write() only queues (written_at_us then tells the send time).
+  virtual bool queues_writes() const { return false; }
 };
 
 // Opens a board at `path` at the protocol's baud rate, raw 8N1. Pseudo-terminals (and links

@@ -32,6 +32,7 @@ class JamLink : public Link {
   std::string name() const override { return name_ + " (song)"; }
   // The writer sends a queued frame within its 1 ms idle wait, or when the budget has room.
   uint64_t written_at_us() override { return session_.song_frame_written_us(board_, 50); }
+  bool queues_writes() const override { return true; }
 
  private:
   LiveSession &session_;

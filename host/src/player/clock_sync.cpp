@@ -48,7 +48,26 @@ bool ClockSync::add(uint64_t send_us, uint64_t recv_us, uint32_t board_ticks) {
   while (samples_.size() > window_ || samples_.back().host_us - samples_.front().host_us > kWindowS * 1e6)
     samples_.pop_front();
   fit();
+  if (way_ == Way::kSendSide) settle_on_quickest();
   return true;
+}
+
+// Called from: add, after fit. The fit's points are each a few samples' median way out, which
+// puts the line about half a USB frame's wait behind the quickest way out. The line is moved,
+// along its slope, to the kQuickestQuantile of every sample's distance from it: the board's
+// time as a request that caught its frame at once reaches it (a tenth of a frame's wait at
+// most), the same point on every board's link, so the notes of several boards line up. (A
+// request held up on its way out, or a reply kept by the bridge, is among the slow ones and
+// weighs nothing; a board that fell behind for a moment is among the quick ones only while the
+// moments are fewer than the quantile.)
+void ClockSync::settle_on_quickest() {
+  if (samples_.size() < kQuickestMinSamples) return;
+  std::vector<double> off;
+  off.reserve(samples_.size());
+  for (const Sample &s : samples_) off.push_back(s.ticks - ticks_at(s.host_us));
+  const auto q = off.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(off.size()) * kQuickestQuantile);
+  std::nth_element(off.begin(), q, off.end());
+  offset_ticks_ += *q;
 }
 
 void ClockSync::reset() {
@@ -119,11 +138,10 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-// Called from: add. The points: of each point_samples in a row, of those whose round trip is
-// within kRttSlackUs of the quickest (a request held up on its way out, in the host's queue or
-// behind other frames, lengthens its round trip), the one whose board time is furthest ahead
-// of its send time (the request's way out varies by up to a USB frame, the reply's by a
-// bridge's whole batching time, and a board that fell behind only lags); with kRoundTrip,
+// Called from: add. The points: of each point_samples in a row, the one whose board time is
+// the median distance ahead of its send time (the way out varies by up to a USB frame, evenly
+// over the frame as the requests' send times step through it; a request held up on its way
+// out and a board that fell behind for a moment sit at the ends); with kRoundTrip,
 // every sample whose round trip is among the quickest quarter (or within 100 us of the
 // quickest), at its midpoint. A line through them; points off it by more than four times
 // their typical distance (at least kTrimMinUs) are left out and the line fitted again,
@@ -141,15 +159,13 @@ void ClockSync::fit() {
   }
   for (size_t first = 0; way_ == Way::kSendSide && first < samples_.size(); first += point_samples_) {
     const size_t end = std::min(samples_.size(), first + point_samples_);
-    double quickest = samples_[first].rtt_us;
-    for (size_t i = first; i < end; ++i) quickest = std::min(quickest, samples_[i].rtt_us);
-    const Sample *best = nullptr;
-    for (size_t i = first; i < end; ++i) {
-      const Sample &s = samples_[i];
-      if (s.rtt_us > quickest + kRttSlackUs) continue;
-      if (!best || s.ticks - s.host_us * per_us > best->ticks - best->host_us * per_us) best = &s;
-    }
-    points.push_back({best->host_us, best->ticks});
+    std::vector<const Sample *> group;
+    for (size_t i = first; i < end; ++i) group.push_back(&samples_[i]);
+    const auto mid = group.begin() + static_cast<std::ptrdiff_t>(group.size() / 2);
+    std::nth_element(group.begin(), mid, group.end(), [per_us](const Sample *a, const Sample *b) {
+      return a->ticks - a->host_us * per_us < b->ticks - b->host_us * per_us;
+    });
+    points.push_back({(*mid)->host_us, (*mid)->ticks});
   }
   std::vector<bool> kept(points.size(), true);
   Line l = fit_line(points, kept, per_us);

@@ -5,17 +5,18 @@
 // reply is decoded (recv); the board stamps it with its tick counter when it decoded it, so
 // the board's time lies between the two. Through a USB bridge the two ways differ: a request
 // waits at most for the next 1 ms USB frame, a reply for the bridge's whole batching time (up
-// to 4 ms on a 16U2, 16 ms on an FTDI). The fit therefore works from the send side: of every
-// few samples in a row, of those with about the quickest round trip (a request held up on its
-// way out lengthens it), it takes the one whose board time is furthest ahead of its send time
-// (the quickest way out; a board that fell behind for a moment, as a stalled simulation does,
-// only lags) and fits a line through those by least squares, leaving out
-// points far off it: the slope is the board's real tick rate (its crystal's error), the line
-// the board's time at any host time, a constant fraction of a frame ahead. Samples off the
-// line by tens of ms several times in a row mean the board's clock stepped, and the fit
-// starts again from them with the rate it has. The window slides, so the fit keeps refining
-// for as long as samples come. 32-bit tick counts are unwrapped against the prediction, so a
-// song may last longer than the counter's 268 s period.
+// to 4 ms on a 16U2, 16 ms on an FTDI). The fit therefore works from the send side, where a
+// request waits only for the next frame: of every few samples in a row it takes the one whose
+// board time is the median distance ahead of its send time (a request held up on its way
+// out, or a board that fell behind for a moment as a stalled simulation does, is one of a
+// few at either end) and fits a line through those by least squares, leaving out points far
+// off it: the slope is the board's real tick rate (its crystal's error). The line is then
+// moved to the quickest tenth of all the samples' ways out: the board's time as a request
+// that caught its USB frame at once reaches it, the same point on every board's link. Samples
+// off the line by tens of ms several times in a row mean the board's clock stepped, and the fit
+// starts again from them with the rate it has. The window slides, so the fit keeps refining for
+// as long as samples come. 32-bit tick counts are unwrapped against the prediction, so a song
+// may last longer than the counter's 268 s period.
 #ifndef STEPCHOIR_HOST_PLAYER_CLOCK_SYNC_H
 #define STEPCHOIR_HOST_PLAYER_CLOCK_SYNC_H
 
@@ -32,13 +33,14 @@ class ClockSync {
   static constexpr double kMinRateSpanS = 1.0;    // span of samples before the rate is fitted
   static constexpr double kResetJumpS = 0.05;     // the board's time this far back: a new board
   static constexpr size_t kPointSamples = 8;      // one point of the fit per this many samples
-  static constexpr double kRttSlackUs = 1000;     // a point's samples: round trips this close to the quickest
   static constexpr double kTrimMinUs = 300;       // the fit keeps points this close to its line
   static constexpr double kStepMinUs = 20000;     // a sample this far off the line is off it
   static constexpr int kStepSamples = 5;          // off the line this often in a row: the clock stepped
   static constexpr double kPriorSpanErrors = 2;   // a fit's rate error: at least this many residuals over its span
   static constexpr double kPriorRejectSigmas = 3; // a prior this far from the samples' rate is dropped
   static constexpr double kPriorMinSigmaPpm = 10; // a prior is never surer than this (a crystal drifts with heat)
+  static constexpr double kQuickestQuantile = 0.1; // kSendSide: the line at this quantile of the samples' way out
+  static constexpr size_t kQuickestMinSamples = 10; // ... once this many samples are in
 
   // nominal_ticks_per_s: the board's F_CPU (its tick rate if its crystal were exact).
   explicit ClockSync(double nominal_ticks_per_s) : nominal_(nominal_ticks_per_s), rate_(nominal_ticks_per_s) {}
@@ -77,7 +79,7 @@ class ClockSync {
   // Which way of the round trip the fit trusts. kSendSide: the request's (a direct link, where
   // a reply may wait for a bridge's whole batching time); ticks_at is then the board's time as
   // a request sent then reaches it. kRoundTrip: neither (the request waits in another
-  // thread's queue, as in jam): the quickest round trips, at their midpoints.
+  // thread's queue for a time the link cannot tell): the quickest round trips, at their midpoints.
   enum class Way { kSendSide, kRoundTrip };
   // Called from: the player, before the first sample.
   void set_way(Way way) { way_ = way; }
@@ -117,6 +119,7 @@ class ClockSync {
 
  private:
   void fit();
+  void settle_on_quickest();
 
   double nominal_, rate_;
   double origin_us_ = 0, offset_ticks_ = 0;  // the line passes through (origin_us_, offset_ticks_)

@@ -68,8 +68,9 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
   // A board simulated as fast as it runs changes speed all the time, and is this program's
   // own child: no sample there means a reset.
   if (opt_.board_time) sync_.set_window(kBoardTimeWindow, 0.02, 1e9, 1);
-  // Sharing the board (jam), the requests wait in the live path's queue before they go out.
-  if (!opt_.exclusive) sync_.set_way(ClockSync::Way::kRoundTrip);
+  // Sharing the board (jam), the requests wait in the live path's queue before they go out:
+  // the send side holds when that link tells when each truly left (JamLink does).
+  if (!opt_.exclusive && !board_->link().queues_writes()) sync_.set_way(ClockSync::Way::kRoundTrip);
   // A board met before: its remembered crystal is the clock fit's prior, so the first note is
   // in tune although the first second's samples cannot tell the rate that well.
   if (opt_.crystal_ppm && !opt_.board_time && opt_.auto_tune)
@@ -78,7 +79,7 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
 
 // Called from: everything that writes. One frame; counts it against the link budget (waiting
 // for it when the budget is spent). sent_us, when given, gets the time just before the write, or
-// when a link that queues (jam) handed the frame to the OS.
+// when a link that queues (jam) handed the frame to the OS (0 when that did not happen in time).
 // False when the link failed.
 bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us) {
   const std::vector<uint8_t> wire = frame(payload);
@@ -98,9 +99,8 @@ bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us
     return false;
   }
   budget_.spend(wire.size());
-  if (sent_us) {  // a link that queues (jam) knows when the frame truly left
-    if (const uint64_t written = board_->link().written_at_us()) *sent_us = written;
-  }
+  if (sent_us && board_->link().queues_writes())  // it knows when the frame truly left (jam)
+    *sent_us = board_->link().written_at_us();  // 0: not in time, the send time is unknown
   // The line to the board is busy with this frame's bits, after whatever it still carried,
   // and the bridge may hold the last of them for a USB frame.
   const double now = static_cast<double>(monotonic_us());
