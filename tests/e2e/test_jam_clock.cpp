@@ -4,9 +4,12 @@
 // the clock's own beat grid (its ticks' times without the jitter), for half a minute (two minutes on
 // request): the song takes the clock's tempo (not its own) on both sides of the change, and
 // stays on its grid.
-// The figures are printed (bench/results/jam-midi-clock.md): the issue's 2 ms bound depends on
-// the machine keeping real time, so the test asserts the clock's tempo, the grid and the change.
+// Every onset within 2 ms of the grid, the first at the new tempo included (issue 25's bound). The
+// verdict needs the virtual board in real time (the `pacing` label): a failure says how far the
+// machine stalled the board. Figures: bench/results/jam-midi-clock.md.
 #include <catch2/catch.hpp>
+
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -24,6 +27,7 @@
 #include "core/midi_event.h"
 #include "jack_rig.h"
 #include "play_checks.h"
+#include "score.h"
 #include "smf_builder.h"
 #include "trace.h"
 #include "vboard_process.h"
@@ -67,6 +71,9 @@ TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
   const std::string song = write_beat_song("jam-clock.mid", beats);
   const std::string trace_path = scratch("jam-clock.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  // The board stands in for hardware with its own clock: it goes first on a busy machine, whose
+  // stalls the host's lead absorbs (root only; elsewhere the test runs as it is).
+  setpriority(PRIO_PROCESS, static_cast<id_t>(vb.pid()), -10);
   ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--midi-clock", "--midi-api", "jack", "--midi", Sender::kPort, "--port",
                     vb.pty(), "--song-motors", "0", "--quiet"},
                    true);
@@ -130,8 +137,12 @@ TEST_CASE("jam: the song follows a jittered MIDI clock's tempo and beat grid",
   // The clock's tempo, not the song's own 120 bpm, on both sides of the change.
   CHECK(beat_before == Approx(60.0 / 110).epsilon(0.002));
   CHECK(beat_after == Approx(60.0 / 140).epsilon(0.002));
-  // On the clock's grid: free-running, the song would be seconds off it by the end.
-  CHECK(errs[errs.size() / 2] < 0.010);
-  // The tempo change followed within one beat: at the old tempo that beat would be 117 ms late.
-  CHECK(worst_after_change < 0.010);
+  // On the clock's grid, every beat within 2 ms (free-running, the song would be seconds off it
+  // by the end), and the tempo change followed by the next beat (at the old tempo it would be
+  // 117 ms late).
+  INFO("the machine stalled the virtual board by up to " << tr::pacing_lag_max_us(tt) / 1000.0 << " ms, "
+       << tr::pacing_lag_max_s(tt) << " s into its trace; beat " << worst_beat << " was at "
+       << tt.real_seconds(notes[size_t(worst_beat)].start_cycle) << " s");
+  CHECK(worst < 0.002);
+  CHECK(worst_after_change < 0.002);
 }

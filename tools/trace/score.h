@@ -56,6 +56,8 @@ long pacing_slipped_us(const Trace &t);
 // the trace has no summary. A lag distorts what the host measured of the board's clock meanwhile.
 // Called from: end-to-end tests that judge several boards against one time line.
 long pacing_lag_max_us(const Trace &t);
+// Where (real seconds into the trace) it fell that far behind; -1 when the trace has no summary.
+double pacing_lag_max_s(const Trace &t);
 
 }  // namespace trace
 }  // namespace sc

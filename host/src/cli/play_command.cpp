@@ -108,7 +108,7 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   c->play->add_option("--clock-ppm", c->clock_ppm, "Without --port: the virtual board's crystal error")
       ->check(CLI::Range(-20000.0, 20000.0));
   c->play->add_option("--lead-ms", c->lead_ms, "Send each note this long before it plays")
-      ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
+      ->check(CLI::Range(20.0, 5000.0))->default_str(std::to_string(int(PlayCommand::kLeadMs)));
   c->play->add_option("--sync-s", c->sync_s, "Clock sync before the first note")
       ->check(CLI::Range(0.1, 30.0))->default_val(c->sync_s);
   c->play->add_flag("--loop", c->loop, "Start again at the end (Ctrl-C stops)");
@@ -133,7 +133,9 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
                                            "configuration's boards, else the virtual board, in real time");
   c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
-      ->check(CLI::Range(20.0, 5000.0))->default_val(c->lead_ms);
+      ->check(CLI::Range(20.0, 5000.0))
+      ->default_str(std::to_string(int(PlayCommand::kLeadMs)) + ", " + std::to_string(int(PlayCommand::kClockLeadMs)) +
+                    " with --midi-clock");
   c->jam->add_flag("--loop", c->loop, "Start the song again at the end (Ctrl-C stops)");
   c->jam->add_flag("--quiet,-q", c->quiet, "No console and no progress line");
   c->jam->add_flag("--plain", c->plain, "The progress line, not the console, on a terminal");
@@ -329,7 +331,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       po.motors = boards[b].song_ids;
       po.exclusive = !jamming;
       po.board_time = rendering;
-      po.lead_s = rendering ? kRenderLeadS : lead_ms / 1e3;
+      po.lead_s = rendering ? kRenderLeadS : (lead_ms > 0 ? lead_ms : midi_clock ? kClockLeadMs : kLeadMs) / 1e3;
       po.sync_s = sync_s;
       po.loop = loop && !rendering;
       po.auto_tune = !no_auto_tune;

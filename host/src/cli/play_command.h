@@ -34,7 +34,8 @@ struct PlayCommand {
   std::vector<std::string> ports;  // boards (none: the rig's, else the virtual board)
   std::vector<std::string> vboards{"uno"};  // without ports: the virtual boards to start
   std::string vboard_trace, vboard_link;    // vboard_link: empty = its default
-  double clock_ppm = 0, lead_ms = 300, sync_s = 1.0;
+  double clock_ppm = 0, sync_s = 1.0;
+  double lead_ms = 0;  // 0: kLeadMs, or kClockLeadMs following a MIDI clock
   bool loop = false, quiet = false, no_auto_tune = false;
   int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing
   // render
@@ -43,6 +44,10 @@ struct PlayCommand {
   std::string midi = "virtual", midi_api = "alsa", policy = "poly";
   std::vector<int> song_motors{0, 1};  // pool numbers: the boards' motors in board order
   bool midi_clock = false;             // the song follows the MIDI input's clock
+  // A note goes to the board this long before it plays: room for the host's stalls. Following a
+  // MIDI clock, a note's time is the clock's grid laid that far ahead: a shorter lead fits it
+  // through more ticks after a tempo change.
+  static constexpr double kLeadMs = 300, kClockLeadMs = 100;
   bool plain = false;                  // play, jam: the progress line, not the console, on a terminal
 
   // Called by main after parsing; returns the exit code (errors on stderr). stop: Ctrl-C

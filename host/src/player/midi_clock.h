@@ -4,7 +4,8 @@
 //
 // ClockFollower is the pure part: it takes clock messages with their host times and fits a
 // line through the last kWindow ticks (least squares: a DAW's clock jitters by a millisecond or
-// so, the line by a fraction of that), so a beat's host time is known ahead; a tempo change
+// so, and MIDI through JACK moves once a period; four beats of ticks put the line within a
+// tenth of that, a lead ahead), so a beat's host time is known ahead; a tempo change
 // (two ticks in a row far off the line) restarts the fit from the change, so the new tempo is
 // followed within a few ticks. Ticks count while the clock is stopped too (DAWs send them), so
 // the grid is known before Start: the tick after Start is beat 0, the tick after Continue the
@@ -30,7 +31,7 @@ namespace stepchoir {
 class ClockFollower {
  public:
   static constexpr int kTicksPerBeat = 24;
-  static constexpr size_t kWindow = 24;  // ticks the line is fitted through: one beat
+  static constexpr size_t kWindow = 96;  // ticks the line is fitted through: four beats
   static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
   static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
 
