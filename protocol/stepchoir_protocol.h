@@ -19,7 +19,7 @@ namespace sc {
 // Link and framing
 // ---------------------------------------------------------------------------------------------
 
-static const uint8_t kProtocolVersion = 1;
+static const uint8_t kProtocolVersion = 2;     // in caps: the message layouts of this header
 static const uint32_t kBaud = 1000000;         // bit/s; exact at 16 MHz with U2X clear, UBRR 0
 static const uint8_t kDelimiter = 0x00;        // ends every frame on the wire (COBS never emits it)
 static const uint8_t kMaxPayload = 60;         // bytes of message (type byte included), before CRC
@@ -226,7 +226,8 @@ struct __attribute__((packed)) StatusHead {
   uint32_t frames_ok;
   uint16_t frames_bad;       // frames that failed CRC or COBS, or were refused
   uint16_t uart_overruns;
-  uint16_t reversals;        // endstop and soft-limit reversals since the counters were reset
+  uint16_t reversals;        // every motor's endstop and soft-limit reversals since the counters were
+                             // reset: the sum of the StatusMotor::reversals that follow (wraps at 65536)
   uint16_t late_edges;       // steps the scheduler had to raise itself, late: their compare was armed too late (should stay 0)
   uint8_t queue_used;
   uint8_t last_error;        // ErrorCode of the most recent fault
@@ -239,6 +240,8 @@ static const uint8_t kStatusDriversEnabled = 0x02;
 struct __attribute__((packed)) StatusMotor {
   int32_t position_steps;
   uint8_t flags;             // kMotorDirUp | kMotorSounding | kMotorEndstopFault
+  uint16_t reversals;        // this motor's endstop and soft-limit reversals since the counters
+                             // were reset (wraps at 65536)
 };
 static const uint8_t kMotorDirUp = 0x01;
 static const uint8_t kMotorSounding = 0x02;
@@ -288,6 +291,7 @@ static_assert(sizeof(ConfigBody) + 1 <= kMaxPayload, "config fits a frame");
 static_assert(sizeof(MoveBody) == 14 && sizeof(MoveDoneBody) == 10 && sizeof(SetPositionBody) == 5,
               "motion bodies as PROTOCOL.md shows them");
 static_assert(sizeof(DriverBody) == 8 && sizeof(DriverActBody) == 2, "driver bodies as PROTOCOL.md shows them");
+static_assert(sizeof(StatusHead) == 16 && sizeof(StatusMotor) == 7, "status records as PROTOCOL.md shows them");
 static_assert(sizeof(StatusHead) + 1 + 5 * sizeof(StatusMotor) <= kMaxPayload, "status fits");
 
 // ---------------------------------------------------------------------------------------------

@@ -306,7 +306,7 @@ void Commands::reply_status() {
   h.frames_ok = frames_ok_;
   h.frames_bad = frames_bad_;
   h.uart_overruns = hal::uart_overruns();
-  h.reversals = hal::reversals();
+  h.reversals = 0;  // the motors' below, summed (wrapping as they do)
   h.late_edges = hal::late_edges();
   h.queue_used = hal::queue_used();
   const uint8_t motor_fault = hal::last_motor_fault();
@@ -314,14 +314,15 @@ void Commands::reply_status() {
   h.motor_count = hal::motor_count();
   h.flags = (uint8_t)((watchdog_tripped_ ? kStatusWatchdogTripped : 0) |
                       (hal::drivers_enabled() ? kStatusDriversEnabled : 0));
-  memcpy(buf + 1, &h, sizeof h);
   uint8_t n = (uint8_t)(1 + sizeof h);
   for (uint8_t m = 0; m < h.motor_count; ++m) {
     StatusMotor s;
     hal::motor_status(m, &s);
+    h.reversals = (uint16_t)(h.reversals + s.reversals);
     memcpy(buf + n, &s, sizeof s);
     n = (uint8_t)(n + sizeof s);
   }
+  memcpy(buf + 1, &h, sizeof h);
   hal::send(buf, n);
 }
 

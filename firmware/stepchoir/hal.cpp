@@ -74,8 +74,6 @@ uint8_t sounding() { return sched::sounding(); }
 
 void motor_status(uint8_t m, sc::StatusMotor *out) { sched::motor_status(m, out); }
 
-uint16_t reversals() { return sched::counters().reversals; }
-
 uint16_t late_edges() { return sched::counters().late_edges; }
 
 uint8_t last_motor_fault() { return sched::counters().motor_fault; }

@@ -67,11 +67,10 @@ void set_position(uint8_t m, int32_t position);
 // Bit m set while motor m sounds (or moves).
 uint8_t sounding();
 
-// Fills motor m's status record.
+// Fills motor m's status record: position, flags, its reversals since the last reset.
 void motor_status(uint8_t m, sc::StatusMotor *out);
 
-// Step-level counters kept by the scheduler: reversals and late edges since the last reset.
-uint16_t reversals();
+// Step-level counters kept by the scheduler: late edges since the last reset.
 uint16_t late_edges();
 uint8_t last_motor_fault();  // sc::ErrorCode raised by the step ISR (endstop stuck), 0 if none
 bool drivers_enabled();

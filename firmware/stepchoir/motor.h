@@ -88,11 +88,14 @@ struct Motor {
   uint32_t move_left;
   uint8_t move_flags;
   uint8_t move_end;
+  // Reversals at a switch or a soft limit since the counters were reset, wrapping at 65536 (the
+  // status reply's StatusMotor::reversals): account_step counts, the main loop reads and zeroes.
+  uint16_t reversals;
 };
 
-// What the motors' logic counts for the status reply; the step path's ISRs write it.
+// What the motors' logic counts for the status reply; the step path's ISRs write it. Each
+// motor counts its own reversals (Motor::reversals).
 struct StepCounters {
-  volatile uint16_t reversals;
   volatile uint16_t late_edges;     // edges a handler raised itself (its compare armed too late)
   volatile uint8_t motor_fault;     // sc::ErrorCode of the last stuck switch, 0 if none
   volatile uint8_t late_entries;    // timed entries made after their time (played at once)
@@ -172,7 +175,7 @@ SC_INLINE void account_step(Motor &m) {
   if (reverse) {
     m.flags ^= kUp;
     SC_ATOMIC { *m.dir_port ^= m.dir_mask; }  // other motors share the port
-    g_count.reversals = (uint16_t)(g_count.reversals + 1);
+    m.reversals = (uint16_t)(m.reversals + 1);  // wraps: one 16-bit increment, no test
   }
 }
 

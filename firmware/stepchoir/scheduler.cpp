@@ -493,7 +493,6 @@ void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) {
 Counters counters() {
   Counters c;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {  // the motors' handlers write them
-    c.reversals = g_count.reversals;
     c.late_edges = g_count.late_edges;
     c.motor_fault = g_count.motor_fault;
     c.late_entries = g_count.late_entries;
@@ -503,8 +502,9 @@ Counters counters() {
 }
 
 void reset_counters() {
+  for (uint8_t i = 0; i < kMotors; ++i)
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { g_motor[i].reversals = 0; }  // its handler counts them
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_count.reversals = 0;
     g_count.late_edges = 0;
     g_count.motor_fault = 0;
   }
@@ -514,13 +514,16 @@ void motor_status(uint8_t mi, sc::StatusMotor *out) {
   const Motor &m = g_motor[mi];
   const uint8_t bit = (uint8_t)(1u << mi);
   int32_t position;
+  uint16_t reversals;
   uint8_t flags, sounding;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {  // the motor's handler writes them
     position = m.position;
+    reversals = m.reversals;
     flags = m.flags;
     sounding = g_sounding;
   }
   out->position_steps = position;
+  out->reversals = reversals;
   out->flags = (uint8_t)(((flags & kUp) ? sc::kMotorDirUp : 0) | ((sounding & bit) ? sc::kMotorSounding : 0) |
                          ((flags & kFault) ? sc::kMotorEndstopFault : 0));
 }

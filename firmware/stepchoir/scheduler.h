@@ -103,9 +103,9 @@ void set_position(uint8_t m, int32_t position);
 uint8_t queue_used();
 void queue_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks);
 
-// What the step path counted since power-up or reset_counters(), for the status reply.
+// What the step path counted since power-up or reset_counters(), for the status reply (each
+// motor's reversals: motor_status).
 struct Counters {
-  uint16_t reversals;
   uint16_t late_edges;    // edges a handler raised itself (its compare armed too late)
   uint8_t motor_fault;    // sc::ErrorCode of the last stuck switch, 0 if none
   uint8_t late_entries;   // timed entries made after their time (wrapping; not reset)
@@ -113,10 +113,11 @@ struct Counters {
 };
 // Called from: main loop. A consistent copy (interrupts off for about 20 cycles).
 Counters counters();
-// Called from: main loop. Zeroes reversals, late_edges and motor_fault.
+// Called from: main loop. Zeroes every motor's reversals, late_edges and motor_fault.
 void reset_counters();
 
-// Called from: main loop. Motor m's position, direction, sounding and fault flags.
+// Called from: main loop. Motor m's position, direction, sounding and fault flags, and its
+// reversals (interrupts off for about 30 cycles).
 void motor_status(uint8_t m, sc::StatusMotor *out);
 
 }  // namespace sched

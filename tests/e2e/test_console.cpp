@@ -141,13 +141,13 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   e2e::LiveRig rig("console");
   TmuxSession tmux(stepchoir_in_pane("live --config " + rig.config_path), 80, 24);
   std::string screen;  // the latest capture
-  // The Uno's four motors, silent, their carriages in the middle of the rail (from the board's
-  // status replies, once a second).
+  // The Uno's four motors, silent, their carriages in the middle of the rail and no endstop hits
+  // (from the board's status replies, once a second).
   const std::string middle = "|-------------------o------------------|";
   screen = tmux.wait_until([&](const std::string &s) { return all_silent(s) && s.find(middle) != std::string::npos; });
   expect_text(screen, "stepchoir live  preset -  transpose +0");
   REQUIRE(all_silent(screen));
-  expect_row(screen, 3, " 3  --                     " + middle);
+  expect_row(screen, 3, " 3  --                         0  " + middle);
   wait_ms(300);  // JACK takes the new connection
 
   // A4: motor 0's row shows the note, its Hz and no bend; the MIDI line the key.
@@ -156,7 +156,7 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   auto lift = [&](uint8_t key) { up_s[key] = rig.keys.send(stepchoir::note_off(0, key)); };
   press(69);
   screen = tmux.wait_for("440.00");
-  expect_row(screen, 0, " 0  A4      440.00     +0  |");
+  expect_row(screen, 0, " 0  A4      440.00     +0      0  |");
   expect_text(screen, "last: on  ch1 A4 64");
   wait_ms(300);
   lift(69);
@@ -171,7 +171,7 @@ TEST_CASE("live: the console under tmux shows a key's note and Hz, and its octav
   expect_text(screen, "transpose +12");
   press(69);
   screen = tmux.wait_for("880.00");
-  expect_row(screen, 0, " 0  A5      880.00     +0  |");
+  expect_row(screen, 0, " 0  A5      880.00     +0      0  |");
   wait_ms(300);
   lift(69);
   wait_ms(300);
@@ -233,7 +233,7 @@ TEST_CASE("jam: the console under tmux shows the song's place, its clock and the
   wait_ms(300);  // JACK takes the new connection
   rig.keys.send(stepchoir::note_on(0, 69, 64));
   screen = tmux.wait_for("440.00");
-  expect_row(screen, 2, " 2  A4      440.00     +0  |");
+  expect_row(screen, 2, " 2  A4      440.00     +0  ");  // then its endstop hits once a status came
   rig.keys.send(stepchoir::note_off(0, 69));
   quit_and_check_terminal(tmux, "jam: stopped, every motor silent");
 }

@@ -1,6 +1,7 @@
 // test_safety.cpp: the real firmware on the virtual board keeps the carriages on their rails:
-// endstop bounce-back (clean and chattering switches, uno and mega), soft limits, a note's onset
-// heading away from the end it hit, the onset ramp, and a stuck switch.
+// endstop bounce-back (clean and chattering switches, uno and mega), each motor's endstop hits
+// in status, soft limits, a note's onset heading away from the end it hit, the onset ramp, and
+// a stuck switch.
 #include "safety_rig.h"
 
 using namespace safety_rig;
@@ -19,6 +20,66 @@ TEST_CASE("safety: uno motor 0 with 3 ms switch chatter: still exactly one rever
 
 TEST_CASE("safety: mega motor 0 with 3 ms switch chatter: still exactly one reversal per press") {
   check_bounce_back("mega", 3000);
+}
+
+namespace {
+
+// Reversals of a motor that played one note, as the trace shows them: steps that run the other
+// way from the step before, and a DIR change after its last step (the firmware turned at that
+// step, and the note ended before the next).
+size_t traced_reversals(const tr::MotorTrace &m) {
+  if (m.steps.empty()) return 0;
+  const size_t turns = tr::reversal_indices(m.steps).size();
+  const bool turned_last = !m.dir_changes.empty() && m.dir_changes.back().cycle > m.steps.back().rise_cycle;
+  return turns + (turned_last ? 1 : 0);
+}
+
+}  // namespace
+
+TEST_CASE("safety: uno endstop hits per motor - status counts each motor's reversals as the trace shows them") {
+  // Motors 0 and 1 have switches on a 400-step rail, acting before the firmware's soft limits
+  // (travel 800). Motor 0 plays 2000 Hz for 1.5 s, bouncing off both ends; motor 1 plays 50
+  // steps from the middle, clear of them.
+  const int64_t kRail = 400;
+  Rig r("safety-hits-uno", "uno", {"--travel-steps", std::to_string(kRail)});
+  REQUIRE(r.caps.endstops.size() >= 2);
+  REQUIRE((r.caps.endstops[0] != 0 && r.caps.endstops[1] != 0));
+  r.b.send(e2e::watchdog_payload(0));
+  for (uint8_t m : {0, 1}) r.b.send(config_payload(e2e::motor_config(m, 2 * kRail)));
+  REQUIRE_FALSE(r.b.wait_reply(sc::kMsgError, 200));
+  const uint32_t t0 = e2e::board_ticks(r.b);
+  r.b.send(e2e::tone_payload(0, hz_to_period_q8(2000.0, r.caps.f_cpu_hz)));
+  r.b.send(e2e::tone_payload(1, hz_to_period_q8(500.0, r.caps.f_cpu_hz)));
+  e2e::wait_board_time(r.b, t0 + r.ticks(0.1));
+  r.b.send(e2e::tone_payload(1, 0));
+  e2e::wait_board_time(r.b, t0 + r.ticks(1.5));
+  r.b.send(e2e::tone_payload(0, 0));
+  e2e::wait_board_time(r.b, e2e::board_ticks(r.b) + r.ticks(0.01));  // both silent: no reversal to come
+  const auto st = r.b.status();
+  REQUIRE(st);
+  r.b.send({sc::kMsgResetCounters});
+  const auto reset = r.b.status();
+  REQUIRE(reset);
+  const tr::Trace t = r.finish();
+
+  const size_t traced[2] = {traced_reversals(t.motor[0]), traced_reversals(t.motor[1])};
+  std::printf("uno endstop hits: motor 0 %zu steps, %zu reversals in the trace, %u in status; motor 1 %zu steps, "
+              "%zu and %u; board total %u\n",
+              t.motor[0].steps.size(), traced[0], unsigned(st->motors.at(0).reversals), t.motor[1].steps.size(),
+              traced[1], unsigned(st->motors.at(1).reversals), unsigned(st->head.reversals));
+  REQUIRE(st->motors.size() == r.caps.motor_count);
+  REQUIRE(t.motor[0].steps.size() > 2000);
+  REQUIRE(traced[0] >= 5);                      // motor 0 bounced off its switches
+  REQUIRE(e2e::press_cycles(t.motor[0]).size() >= traced[0]);  // each at a press of a switch
+  REQUIRE(t.motor[1].steps.size() >= 40);       // motor 1 played
+  REQUIRE(t.motor[1].endstop_changes.empty());  // but never reached a switch
+  CHECK(st->motors[0].reversals == traced[0]);
+  CHECK(st->motors[1].reversals == traced[1]);
+  CHECK(st->head.reversals == traced[0] + traced[1]);  // the board's total
+  for (size_t m = 2; m < st->motors.size(); ++m) CHECK(st->motors[m].reversals == 0);  // silent all along
+  REQUIRE(reset->motors.size() == st->motors.size());
+  CHECK(reset->head.reversals == 0);
+  for (const sc::StatusMotor &m : reset->motors) CHECK(m.reversals == 0);
 }
 
 TEST_CASE("safety: uno motor A (no switch) reverses at its soft limits and never leaves the rail") {

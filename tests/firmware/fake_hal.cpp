@@ -57,12 +57,12 @@ uint8_t sounding() {
 void motor_status(uint8_t m, sc::StatusMotor *out) {
   out->position_steps = 100 * m;
   out->flags = g_hal.period[m] ? sc::kMotorSounding : 0;
+  out->reversals = g_hal.reversals[m];
 }
-uint16_t reversals() { return 3; }
 uint16_t late_edges() { return 0; }
 uint8_t last_motor_fault() { return 0; }
 bool drivers_enabled() { return true; }
-void reset_step_counters() {}
+void reset_step_counters() { g_hal.reversals.fill(0); }
 uint16_t uart_overruns() { return 0; }
 void reset_uart_overruns() {}
 void send(const uint8_t *payload, uint8_t len) {

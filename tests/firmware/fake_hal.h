@@ -38,6 +38,7 @@ struct FakeHal {
   uint8_t moving = 0;                           // what hal::moving() reports (bit a motor)
   std::vector<sc::MoveDoneBody> ended;          // what hal::move_ended hands out, first first
   std::array<int32_t, 8> position{};            // what hal::set_position set
+  std::array<uint16_t, 8> reversals{};          // each motor's, as hal::motor_status reports them
   void reset() { *this = FakeHal(); }
 };
 

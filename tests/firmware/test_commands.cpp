@@ -173,6 +173,31 @@ TEST_CASE("the caps reply matches the spec's caps vector") {
     if (v.kind == "caps") CHECK(g_hal.sent == v.wire);
 }
 
+TEST_CASE("the status reply carries each motor's reversals - the head their wrapping sum - reset zeroes them") {
+  auto &c = fresh();
+  g_hal.reversals = {5, 0, 65535, 3};  // 4 motors: the sum 65543 wraps to 7
+  const auto status = [&] {
+    g_hal.replies.clear();
+    feed(c, wire({sc::kMsgStatusReq}));
+    REQUIRE(g_hal.replies.size() == 1);
+    const std::vector<uint8_t> &r = g_hal.replies[0];
+    REQUIRE(r.size() == 1 + sizeof(sc::StatusHead) + 4 * sizeof(sc::StatusMotor));
+    sc::StatusHead h;
+    std::memcpy(&h, &r[1], sizeof h);
+    std::vector<uint64_t> counts{h.reversals};
+    for (size_t m = 0; m < 4; ++m) {
+      sc::StatusMotor s;
+      std::memcpy(&s, &r[1 + sizeof h + m * sizeof s], sizeof s);
+      CHECK(s.position_steps == int32_t(100 * m));  // the fake's positions: the record is in its place
+      counts.push_back(s.reversals);
+    }
+    return counts;  // the head's total, then each motor's
+  };
+  CHECK(status() == std::vector<uint64_t>{7, 5, 0, 65535, 3});
+  feed(c, wire({sc::kMsgResetCounters}));
+  CHECK(status() == std::vector<uint64_t>{0, 0, 0, 0, 0});
+}
+
 TEST_CASE("a chord with one bad entry plays nothing") {
   auto &c = fresh();
   std::vector<uint8_t> p(8);

@@ -33,7 +33,7 @@ struct Rig {
   Motor m{};
 
   Rig(Wiring w, bool ah, uint32_t travel = 0) : wiring(w), active_high(ah) {
-    g_count.reversals = g_count.late_edges = 0;
+    g_count.late_edges = 0;
     g_count.motor_fault = g_count.late_entries = g_count.late_motor = 0;
     max_port = min_port = ah ? 0x00 : 0xFF;  // released
     m.dir_port = &dir;
@@ -63,7 +63,7 @@ struct Rig {
   bool has(uint8_t flag) const { return m.flags & flag; }
   int heading() const { return has(kUp) != bool(dir & kDirBit) ? 0 : has(kUp) ? 1 : -1; }  // 0: DIR differs
   void tap(bool max) { press(max, true), step(), press(max, false); }  // one step on a switch
-  V state() const { return {m.position, g_count.reversals, heading()}; }
+  V state() const { return {m.position, m.reversals, heading()}; }
   void step(int n = 1) {  // n edges, as the motor's handler does each
     for (int i = 0; i < n; ++i) account_step(m), next_deadline(m);
   }
@@ -252,13 +252,30 @@ TEST_CASE("motor: soft limits reverse at limit_hi and limit_lo - with or without
     for (int32_t i = 1; i <= 3 * span; ++i) {
       r.step();
       if (row.limits) REQUIRE((r.m.position >= lo && r.m.position <= hi));
-      if (g_count.reversals != at_step.size()) at_step.push_back(i), at_pos.push_back(r.m.position);
+      if (r.m.reversals != at_step.size()) at_step.push_back(i), at_pos.push_back(r.m.position);
       REQUIRE(r.heading() != 0);
     }
     CHECK(at_step == (row.limits ? V{span, 2 * span, 3 * span} : V{}));
     CHECK(at_pos == (row.limits ? V{hi, lo, hi} : V{}));
     if (!row.limits) CHECK(r.m.position == lo + 3 * span);
   }
+}
+
+TEST_CASE("motor: each motor counts its own reversals - at a switch and a soft limit - wrapping", "[motor]") {
+  Rig a(kShared, false, 3200), b(kNone, false, 300);  // a: a switch; b: none, soft limits 0 and 300
+  a.go(true), b.go(true);
+  a.press(true, true);
+  a.step(4);  // onto the max switch, and 3 steps back still pressed: one reversal
+  a.press(true, false);
+  CHECK(V{a.m.reversals, b.m.reversals} == V{1, 0});
+  b.step(150);  // from the middle (150) up to limit_hi: it turns there
+  CHECK(V{a.m.reversals, b.m.reversals} == V{1, 1});
+  b.step(300);  // down to limit_lo
+  a.step(300);  // a, away from its switches: no reversal
+  CHECK(V{a.m.reversals, b.m.reversals} == V{1, 2});
+  b.m.reversals = 0xFFFF;
+  b.step(300);  // up to limit_hi again: the count wraps
+  CHECK(V{a.m.reversals, b.m.reversals} == V{1, 0});
 }
 
 TEST_CASE("motor: start_up takes the side with more room - not into a pressed switch", "[motor]") {

@@ -61,7 +61,7 @@ TEST_CASE("move: takes exactly its steps past the soft limits, then falls silent
     CHECK(r.m.cmd == kCmdNone);  // dropped: it must not start the motor again
     CHECK(bool(r.m.flags & kUp) == up);  // no reversal
     CHECK(bool(r.dir & kDirBit) == up);
-    CHECK(g_count.reversals == 0);
+    CHECK(r.m.reversals == 0);
   }
 }
 

@@ -25,18 +25,18 @@ using namespace stepchoir::live_test;
 namespace {
 
 // A FakeLink whose board answers: every read hands out one status reply (motor m at position
-// positions[m], motor 1's switch faulty, `reversals` reversals).
+// positions[m] with reversals[m] reversals, motor 1's switch faulty, the board's total their sum).
 class StatusLink : public FakeLink {
  public:
-  StatusLink(std::vector<int32_t> positions, uint16_t reversals) {
+  StatusLink(std::vector<int32_t> positions, std::vector<uint16_t> reversals) {
     std::vector<uint8_t> payload(1 + sizeof(sc::StatusHead));
     payload[0] = sc::kMsgStatus;
     sc::StatusHead head{};
-    head.reversals = reversals;
+    for (uint16_t r : reversals) head.reversals = static_cast<uint16_t>(head.reversals + r);
     head.motor_count = static_cast<uint8_t>(positions.size());
     std::memcpy(&payload[1], &head, sizeof head);
     for (size_t m = 0; m < positions.size(); ++m) {
-      sc::StatusMotor s{positions[m], static_cast<uint8_t>(m == 1 ? sc::kMotorEndstopFault : 0)};
+      sc::StatusMotor s{positions[m], static_cast<uint8_t>(m == 1 ? sc::kMotorEndstopFault : 0), reversals.at(m)};
       const auto *p = reinterpret_cast<const uint8_t *>(&s);
       payload.insert(payload.end(), p, p + sizeof s);
     }
@@ -56,20 +56,37 @@ class StatusLink : public FakeLink {
 }  // namespace
 
 TEST_CASE("live: status replies publish each carriage's position, switch faults and the reversals", "[live][console]") {
-  StatusLink link({1600, -12, 3200, 0}, 7);
-  LiveSession session({LiveBoard{&link, 4, 16000000}}, pool_config({LiveBoard{&link, 4, 16000000}}, Policy::kPoly));
+  StatusLink link({1600, -12, 3200, 0}, {5, 0, 2, 65535});
+  const std::vector<LiveBoard> pool{LiveBoard{&link, 4, 16000000}};
+  const AllocatorConfig config = pool_config(pool, Policy::kPoly);
+  LiveSession session(pool, config);
   session.start();
   const BoardStats &st = session.board_stats(0);
   REQUIRE(eventually([&] { return st.last_status_us.load() != 0; }));
+  ConsoleSources src;
+  src.reconnecting = {false};
+  src.music = config;
+  const ConsoleModel m = ConsoleSampler().sample(session, src, monotonic_us());
   session.stop();
   CHECK(st.position_steps[0].load() == 1600);
   CHECK(st.position_steps[1].load() == -12);
   CHECK(st.position_steps[2].load() == 3200);
   CHECK(st.endstop_fault_mask.load() == 0x02);
-  CHECK(st.reversals.load() == 7);
+  CHECK(std::vector<uint16_t>{st.motor_reversals[0], st.motor_reversals[1], st.motor_reversals[2],
+                              st.motor_reversals[3]} == std::vector<uint16_t>{5, 0, 2, 65535});
+  CHECK(st.reversals.load() == 6);  // the board's total, wrapped
   CHECK(st.reconnects.load() == 0);
   CHECK(session.motor_board(3) == 0);
   CHECK(session.board_motor(3) == 3);
+  // The console's rows: each motor its own count, the link the board's total.
+  REQUIRE(m.motors.size() == 4);
+  for (size_t i = 0; i < 4; ++i) {
+    INFO("motor " << i);
+    CHECK(m.motors[i].has_position);
+    CHECK(m.motors[i].reversals == st.motor_reversals[i].load());
+  }
+  REQUIRE(m.links.size() == 1);
+  CHECK(m.links[0].reversals == 6);
 }
 
 TEST_CASE("live: the event log returns the newest events first, with their age", "[live][console]") {
@@ -283,7 +300,8 @@ TEST_CASE("console: the screen at 80x24, and what a small terminal keeps", "[con
   REQUIRE(lines.size() == 24);
   for (const ScreenLine &l : lines) CHECK(l.text.size() <= 80);
   CHECK(lines[0].text.find("preset 2/3 split (program 2)  transpose +12") != std::string::npos);
-  CHECK(lines[2].text.find(" 0  A4      440.00     +0  |") == 0);
+  CHECK(lines[1].text == " #  note        Hz  cents   ends  rail");
+  CHECK(lines[2].text.find(" 0  A4      440.00     +0      0  |") == 0);
   CHECK(lines[3].text.find("muted") != std::string::npos);
   CHECK(lines[23].text == kKeysHelp);
   std::string all;
@@ -311,6 +329,28 @@ TEST_CASE("console: the screen at 80x24, and what a small terminal keeps", "[con
   for (const ScreenLine &l : lines) all += l.text + "\n";
   CHECK(all.find("13 mute_motor") != std::string::npos);
   CHECK(console_lines(m, f, 1, 1).size() == 1);
+}
+
+TEST_CASE("console: a motor's row shows its own endstop hits - the link row its board's total", "[console]") {
+  ConsoleModel m = sample_model(4);
+  m.motors[1].reversals = 65535;  // muted too: the widest row
+  m.motors[2].reversals = 12;
+  m.motors[3].reversals = 3;
+  m.motors[3].has_position = false;  // no status reply from its board yet: no count shown
+  m.links.resize(1);
+  m.links[0].reversals = 14;
+  const auto lines = console_lines(m, ConsoleFooter{}, 24, 80);
+  const std::string middle = "|-------------------o------------------|";  // 40: the widest bar
+  CHECK(lines[2].text == " 0  A4      440.00     +0      0  " + middle);
+  CHECK(lines[3].text == " 1  --                     65535  " + middle + " muted");
+  CHECK(lines[3].text.size() == 80);
+  CHECK(lines[4].text == " 2  --                        12  " + middle);
+  CHECK(lines[5].text.rfind(" 3  --                            |  ", 0) == 0);
+  CHECK(lines[6].text.find(" ends 14") != std::string::npos);
+  // play: the board's name after the cents, no count (the player reads no status)
+  m.command = "play";
+  m.motors[0].board = "/dev/ttyACM0";
+  CHECK(console_lines(m, ConsoleFooter{}, 24, 80)[2].text == " 0  A4      440.00     +0   ttyACM0");
 }
 
 TEST_CASE("console: jam's screen: the song's place, the rig's motor numbers, each board's clock", "[console]") {

@@ -99,6 +99,23 @@ TEST_CASE("host encoders produce the spec's payloads") {
       CHECK(c.queue_size == v.num("queue"));
       CHECK(c.board_name == v.str("name"));
       CHECK(c.endstops == std::vector<uint8_t>{7, 7, 7, 0});
+    } else if (v.kind == "status") {
+      const Status s = parse_status(v.payload.data(), v.payload.size());
+      CHECK(s.head.frames_ok == v.num("frames_ok"));
+      CHECK(s.head.frames_bad == v.num("frames_bad"));
+      CHECK(s.head.reversals == v.num("reversals"));
+      CHECK(s.head.flags == v.num("flags"));
+      const auto positions = v.nums("position"), flags = v.nums("motor_flags"), reversals = v.nums("motor_reversals");
+      REQUIRE(s.head.motor_count == positions.size());
+      REQUIRE(s.motors.size() == positions.size());
+      uint64_t sum = 0;
+      for (size_t m = 0; m < s.motors.size(); ++m) {
+        CHECK(uint64_t(s.motors[m].position_steps) == positions[m]);
+        CHECK(s.motors[m].flags == flags[m]);
+        CHECK(s.motors[m].reversals == reversals[m]);
+        sum += reversals[m];
+      }
+      CHECK(s.head.reversals == sum % 65536);  // the board's total is its motors' sum
     } else if (v.kind == "clock") {
       CHECK(v.payload[0] == sc::kMsgClock);
       CHECK(v.payload[1] == v.num("seq"));

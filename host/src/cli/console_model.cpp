@@ -132,6 +132,7 @@ ConsoleModel ConsoleSampler::sample(const LiveSession &session, const ConsoleSou
     row.position_steps = st.position_steps[bm].load();
     row.travel_steps = i < src.travel_steps.size() ? src.travel_steps[i] : 0;
     row.switch_fault = st.endstop_fault_mask.load() >> bm & 1u;
+    row.reversals = st.motor_reversals[bm].load();
     row.song = i < 32 && (src.song_motors >> i & 1u);
     m.motors.push_back(row);
   }

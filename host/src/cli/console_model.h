@@ -33,6 +33,7 @@ struct ConsoleMotor {
   int32_t position_steps = 0;  // 0 .. travel_steps, the middle at travel_steps / 2
   uint32_t travel_steps = 0;   // the rail (config/rig.h motor_travel)
   bool switch_fault = false;   // the board ignores its stuck end switch
+  uint16_t reversals = 0;      // endstop hits: its reversals at a switch or a soft limit (wraps; with has_position)
   bool song = false;           // a setlist song plays it, not the keyboard
   std::string board;           // play: the port of the board it is on ("" : not shown)
 };
@@ -47,7 +48,7 @@ struct ConsoleLink {
   std::string last_error;       // the latest one's name ("" when none)
   uint32_t bad_frames = 0;      // frames the board refused (CRC, framing)
   uint32_t reconnects = 0;
-  uint16_t reversals = 0;       // endstop hits: reversals at a switch or a soft limit (wraps)
+  uint16_t reversals = 0;       // endstop hits of all its motors: reversals at a switch or a soft limit (wraps)
   bool has_clock = false;       // jam: the song player's fit of the board's clock
   double clock_ppm = 0;         // its rate against the nominal crystal
   double clock_residual_us = 0; // how far the samples sit from the fit

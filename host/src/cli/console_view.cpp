@@ -13,8 +13,8 @@ namespace {
 
 constexpr size_t kBarMax = 40;     // the rail bar's widest (characters)
 constexpr size_t kBarMin = 7;      // narrower than this: no bar
-constexpr size_t kRowFixed = 26;   // a motor row's characters before its bar
-constexpr size_t kRowFlags = 7;    // kept free after the bar for " muted"
+constexpr size_t kRowFixed = 34;   // a live motor row's characters before its bar, endstop hits included
+constexpr size_t kRowFlags = 6;    // kept free after the bar for " muted"
 constexpr size_t kNoticesShown = 3;  // the latest messages shown
 
 // printf into a std::string (lines are short).
@@ -47,11 +47,14 @@ std::string title(const ConsoleModel &m) {
   return t;
 }
 
+// A motor's row: number, note, Hz, cents; live and jam then its endstop hits (blank until a
+// status reply came) and its rail, play the board it is on.
 ScreenLine motor_line(const ConsoleMotor &mo, size_t cols) {
   const bool sounding = mo.note >= 0;
   std::string line = format("%2zu  %-4s %9s %6s  ", mo.number, motor_note_name(mo.note).c_str(),
                             sounding ? format("%.2f", mo.hz).c_str() : "",
                             sounding ? format("%+.0f", std::fabs(mo.cents) < 0.5 ? 0.0 : mo.cents).c_str() : "");
+  if (mo.board.empty()) line += format("%5s  ", mo.has_position ? std::to_string(mo.reversals).c_str() : "");
   const size_t room = cols > kRowFixed + kRowFlags ? cols - kRowFixed - kRowFlags : 0;
   const size_t bar = std::min(room, kBarMax);
   if (bar >= kBarMin && mo.board.empty()) line += rail_bar(mo, bar);  // play: the board, no rail
@@ -124,7 +127,7 @@ std::string rail_bar(const ConsoleMotor &m, size_t width) {
 std::vector<ScreenLine> console_lines(const ConsoleModel &m, const ConsoleFooter &f, size_t rows, size_t cols) {
   enum Part { kHeading, kMotors, kLinks, kLatency, kMidi, kWarnings, kLearn, kNotices, kParts };
   std::vector<ScreenLine> part[kParts];
-  part[kHeading].push_back({m.command == "play" ? " #  note        Hz  cents  board" : " #  note        Hz  cents  rail",
+  part[kHeading].push_back({m.command == "play" ? " #  note        Hz  cents  board" : " #  note        Hz  cents   ends  rail",
                             LineStyle::kHeading});
   for (const ConsoleMotor &mo : m.motors) part[kMotors].push_back(motor_line(mo, cols));
   for (const ConsoleLink &l : m.links) add_link_lines(l, &part[kLinks]);

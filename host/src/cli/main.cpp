@@ -63,7 +63,8 @@ void print_identity(stepchoir::Board &board) {
   }
 }
 
-// Prints a status reply.
+// Prints a status reply: the board's counters (reversals: every motor's), then a line a motor
+// with its position, its own reversals at a switch or a soft limit, and its flags.
 void print_status(const stepchoir::Status &s) {
   std::printf("frames_ok: %u\nframes_bad: %u\nuart_overruns: %u\nreversals: %u\nlate_edges: %u\n"
               "queue_used: %u\nlast_error: %u (%s)\nwatchdog_tripped: %s\ndrivers_enabled: %s\n",
@@ -72,7 +73,7 @@ void print_status(const stepchoir::Status &s) {
               (s.head.flags & sc::kStatusWatchdogTripped) ? "yes" : "no",
               (s.head.flags & sc::kStatusDriversEnabled) ? "yes" : "no");
   for (size_t m = 0; m < s.motors.size(); ++m)
-    std::printf("motor %zu: position %d %s%s%s\n", m, s.motors[m].position_steps,
+    std::printf("motor %zu: position %d reversals %u %s%s%s\n", m, s.motors[m].position_steps, s.motors[m].reversals,
                 (s.motors[m].flags & sc::kMotorDirUp) ? "up" : "down",
                 (s.motors[m].flags & sc::kMotorSounding) ? " sounding" : "",
                 (s.motors[m].flags & sc::kMotorEndstopFault) ? " endstop-fault" : "");

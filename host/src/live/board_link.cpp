@@ -377,6 +377,7 @@ void BoardLink::reader_loop() {
             if (s.motors[m].flags & sc::kMotorSounding) sounding = static_cast<uint8_t>(sounding | (1u << m));
             if (s.motors[m].flags & sc::kMotorEndstopFault) faults = static_cast<uint8_t>(faults | (1u << m));
             stats_.position_steps[m].store(s.motors[m].position_steps, std::memory_order_relaxed);
+            stats_.motor_reversals[m].store(s.motors[m].reversals, std::memory_order_relaxed);
           }
           stats_.sounding_mask.store(sounding, std::memory_order_relaxed);
           stats_.endstop_fault_mask.store(faults, std::memory_order_relaxed);

@@ -66,10 +66,12 @@ struct BoardStats {
   std::atomic<uint8_t> sounding_mask{0};   // bit m: the board said motor m is sounding
   // From the latest status reply too (about once a second, kStatusEveryMs), by the board's own
   // motor index: each carriage's position (steps, 0 .. travel_steps with soft limits), which
-  // motors' switches are faulty, and the board's reversals at a switch or a soft limit since
-  // it started (all motors; wraps at 65536).
+  // motors' switches are faulty, each motor's reversals at a switch or a soft limit since the
+  // board's counters were reset (power-up, reset-counters), and the board's total of them
+  // (all motors). The counts wrap at 65536.
   std::array<std::atomic<int32_t>, sc::kMaxMotors> position_steps{};
   std::atomic<uint8_t> endstop_fault_mask{0};
+  std::array<std::atomic<uint16_t>, sc::kMaxMotors> motor_reversals{};
   std::atomic<uint16_t> reversals{0};
   std::atomic<uint32_t> reconnects{0};     // links attach() handed over after a failed one
 };
