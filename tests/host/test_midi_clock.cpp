@@ -15,12 +15,18 @@ using namespace stepchoir;
 namespace {
 
 // Sends ticks at bpm from t_us (us) for `beats` beats, each jittered uniformly by +/- jitter_us;
-// returns the time the next tick is due.
-double send_ticks(ClockFollower &f, double t_us, double bpm, double beats, double jitter_us, std::mt19937 &rng) {
+// returns the time the next tick is due. period_us > 0: each comes at the start of the next
+// period of that length, as MIDI through JACK does, stamped half a period earlier (MidiIn's
+// clock_delay_us).
+double send_ticks(ClockFollower &f, double t_us, double bpm, double beats, double jitter_us, std::mt19937 &rng,
+                  double period_us = 0) {
   std::uniform_real_distribution<double> jitter(-jitter_us, jitter_us);
   const double tick_us = 60e6 / bpm / ClockFollower::kTicksPerBeat;
-  for (int i = 0; i < int(std::lround(beats * ClockFollower::kTicksPerBeat)); ++i, t_us += tick_us)
-    f.take({kMidiClockTick, 0, uint64_t(std::llround(t_us + jitter(rng)))});
+  for (int i = 0; i < int(std::lround(beats * ClockFollower::kTicksPerBeat)); ++i, t_us += tick_us) {
+    double at = t_us + jitter(rng);
+    if (period_us > 0) at = std::ceil(at / period_us) * period_us - period_us / 2;
+    f.take({kMidiClockTick, 0, uint64_t(std::llround(at))});
+  }
   return t_us;
 }
 
@@ -91,6 +97,38 @@ TEST_CASE("midi clock: a tempo change is seen within a few ticks, in time for th
     // Jitter alone never looks like a change: the grid stays on a minute of a steady clock.
     t = send_ticks(f, t + 8 * 60e6 / 140 / 24, 140, 128, 1000, rng);
     CHECK(f.us_per_beat() == Approx(60e6 / 140).epsilon(0.003));
+  }
+}
+
+TEST_CASE("midi clock: the beat after a tempo change, sent a jam lead ahead, is within a millisecond",
+          "[clock]") {
+  // jam sends a note kClockLeadMs (100 ms) ahead: the note of the first beat after the change
+  // goes out that long before it, some ticks into the new tempo, which the fit starts from the
+  // old line's last tick. The clock jitters by +/-1 ms and, through JACK, moves once a 1.33 ms
+  // period (MidiIn takes half of it off). A big change, a small one and a slowing one.
+  struct Change {
+    double from_bpm, to_bpm;
+  };
+  for (const Change c : {Change{110, 140}, Change{120, 126}, Change{140, 100}}) {
+    for (const bool jack : {false, true}) {
+      double worst = 0;
+      for (unsigned seed = 1; seed <= 40; ++seed) {
+        std::mt19937 rng(seed);
+        ClockFollower f;
+        f.take({kMidiClockStart, 0, 0});
+        const double period_us = jack ? 64 / 48000.0 * 1e6 : 0;
+        double t = send_ticks(f, 1e9, c.from_bpm, 96, 1000, rng, period_us);
+        const double beat_at_change = f.beat_at(t);
+        const double beat_us = 60e6 / c.to_bpm, tick_us = beat_us / ClockFollower::kTicksPerBeat;
+        const double sent_us = beat_us - 100000;  // the lead before the beat
+        send_ticks(f, t, c.to_bpm, std::floor(sent_us / tick_us) / 24, 1000, rng, period_us);
+        worst = std::max(worst, std::fabs(f.host_us_at(beat_at_change + 1) - (t + beat_us)));
+        CHECK(f.lost_ticks() == 0u);  // a clock slowing down by 1.4 loses no tick
+      }
+      INFO(c.from_bpm << " -> " << c.to_bpm << " bpm" << (jack ? " through JACK" : "") << ": worst of 40 clocks "
+                      << worst << " us");
+      CHECK(worst < (jack ? 1500 : 1200));
+    }
   }
 }
 

@@ -312,7 +312,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
                   midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
-      if (midi_clock) std::printf("jam: the song follows the MIDI clock: waiting for Start\n");
+      if (midi_clock && midi_in->clock_delay_us())
+        std::printf("jam: the song follows the MIDI clock (its ticks taken as sent %.2f ms before they come: half "
+                    "JACK's period): waiting for Start\n", midi_in->clock_delay_us() / 1e3);
+      else if (midi_clock)
+        std::printf("jam: the song follows the MIDI clock: waiting for Start\n");
       std::fflush(stdout);
     }
     // One player a board; with several, they take one start (StartGate) and play on their own

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "live/jack_period.h"
 #include "live/rt_guard.h"
 
 namespace stepchoir {
@@ -60,6 +61,7 @@ std::vector<std::string> list_midi_inputs(MidiApi api) {
 }
 
 MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : queue_(queue) {
+  if (api == MidiApi::kJack) clock_delay_us_ = static_cast<uint64_t>(jack_period_us() / 2);
   try {
     in_ = std::make_unique<RtMidiIn>(rtmidi_api(api), "stepchoir");
     in_->setErrorCallback(rtmidi_error, this);
@@ -155,7 +157,7 @@ void MidiIn::route_clock(ClockQueue &queue) {
 void MidiIn::on_message(const unsigned char *bytes, size_t len) noexcept {
   RtScope rt;
   ClockMessage m;
-  if (parse_clock_message(bytes, len, monotonic_us(), &m)) {
+  if (parse_clock_message(bytes, len, monotonic_us() - clock_delay_us_, &m)) {
     for (auto &slot : clock_)
       if (ClockQueue *q = slot.load(std::memory_order_acquire))
         if (!q->try_enqueue(m)) clock_dropped_.fetch_add(1, std::memory_order_relaxed);

@@ -92,6 +92,10 @@ class MidiIn {
   void route_clock(ClockQueue &queue);
   // Clock messages lost because their queue was full. Called from: any thread.
   uint64_t clock_dropped() const { return clock_dropped_.load(std::memory_order_relaxed); }
+  // How much earlier than it came a clock message is taken to have been sent, us: half the
+  // JACK server's period on the JACK API (a message waits for the next cycle), else 0.
+  // Called from: any thread.
+  uint64_t clock_delay_us() const { return clock_delay_us_; }
   // Channel messages enqueued so far. Called from: any thread.
   uint64_t received() const { return received_.load(std::memory_order_relaxed); }
 
@@ -105,6 +109,7 @@ class MidiIn {
   MidiQueue &queue_;
   std::string port_name_;
   bool is_virtual_ = false;
+  uint64_t clock_delay_us_ = 0;  // set before the callback runs
   std::atomic<uint64_t> dropped_{0};
   std::atomic<uint64_t> received_{0};
   std::atomic<ClockQueue *> clock_[kClockQueues] = {};

@@ -13,14 +13,14 @@ void ClockFollower::take(const ClockMessage &m) {
       if (count_ >= 2 && slope_ > 0) {
         const double gap = (us - last_us_) / slope_;  // in the grid's tick periods
         if (pending_lost_ > 0) {  // the last tick came after a long gap: on time, or late?
-          if (gap >= 0.5) {  // on time (this one a period after it): the ticks before it were lost
+          if (std::fabs(gap - 1) < kLostSlack) {  // on time (this one a period after it): the ticks before it were lost
             ring_[(next_ - 1) % kWindow].n += pending_lost_;
             ticks_ += pending_lost_;
             lost_ += static_cast<uint64_t>(pending_lost_);
-          } else {  // late, with this one: out of the fit
+          } else if (gap < 0.5) {  // late, with this one: out of the fit
             --next_;
             --count_;
-          }
+          }  // else neither: the clock slowed down (a tempo change, which note_change sees)
           pending_lost_ = 0;
         }
         last_us_ = us;
@@ -29,7 +29,8 @@ void ClockFollower::take(const ClockMessage &m) {
           break;
         }
         const int64_t whole = std::llround(gap);
-        if (whole >= 2 && whole <= kMaxLostRun) pending_lost_ = whole - 1;
+        if (whole >= 2 && whole <= kMaxLostRun && std::fabs(gap - static_cast<double>(whole)) < kLostSlack)
+          pending_lost_ = whole - 1;
       }
       last_us_ = us;
       note_change(us);
@@ -66,10 +67,11 @@ void ClockFollower::take(const ClockMessage &m) {
 // Called from: take, for a tick about to join the fit (us: when it came). A tick more than
 // kChangeUs off the line, after another off it the same way, is a tempo change (the clock's
 // jitter, a millisecond or two, never goes that far twice in a row): the fit forgets the ticks
-// before the change and keeps the last one on the old line, so the new tempo takes over within
-// a few ticks rather than a beat.
+// before the change and keeps the last one on the old line, at its time on that line (a
+// fraction of the jitter off), where the new tempo turns, so the new tempo takes over within a
+// few ticks rather than a beat.
 void ClockFollower::note_change(double us) {
-  if (count_ < kWindow / 2) {
+  if (count_ < kChangeMinTicks) {
     change_run_ = 0;
     return;
   }
@@ -82,8 +84,40 @@ void ClockFollower::note_change(double us) {
   }
   change_sign_ = sign;
   if (++change_run_ < 2) return;
-  count_ = std::min(count_, change_run_);  // the run's earlier ticks and the last tick before it
+  count_ = hinge_back(us) + 1;  // the anchor and the ticks after it
+  Tick &anchor = ring_[(next_ - count_) % kWindow];
+  anchor.us = intercept_ + slope_ * static_cast<double>(anchor.n);
   change_run_ = 0;
+}
+
+// Called from: note_change, at a tempo change (us: the tick coming now). The change began at a
+// tick the old line still holds, a few ticks before it was seen (a small change grows past
+// kChangeUs slowly, and jitter hides its first tick): of the last kHingeTicks ticks, the one
+// after which this tick and those before it best follow one new tempo from the old line (least
+// squares of the two parts). Returns its place back from the newest tick in the ring (0: it).
+size_t ClockFollower::hinge_back(double us) const {
+  const size_t m = std::min(count_, kHingeTicks);
+  std::array<double, kHingeTicks + 1> n{}, t{};  // the last m ticks, oldest first, then this one
+  for (size_t i = 0; i < m; ++i) {
+    const Tick &k = ring_[(next_ - m + i) % kWindow];
+    n[i] = static_cast<double>(k.n);
+    t[i] = k.us;
+  }
+  n[m] = static_cast<double>(ticks_);
+  t[m] = us;
+  double best_rss = 0;
+  size_t best = m - 1;
+  for (size_t j = 0; j < m; ++j) {  // tick j the last on the old line
+    double rss = 0;
+    for (size_t k = 0; k <= j; ++k) rss += std::pow(t[k] - (intercept_ + slope_ * n[k]), 2);
+    const double at = intercept_ + slope_ * n[j];
+    double sxy = 0, sxx = 0;
+    for (size_t k = j + 1; k <= m; ++k) sxy += (n[k] - n[j]) * (t[k] - at), sxx += (n[k] - n[j]) * (n[k] - n[j]);
+    const double tick_us = sxy / sxx;  // the new tempo's tick
+    for (size_t k = j + 1; k <= m; ++k) rss += std::pow(t[k] - at - tick_us * (n[k] - n[j]), 2);
+    if (j == 0 || rss < best_rss) best_rss = rss, best = j;
+  }
+  return m - 1 - best;
 }
 
 // Least squares through the ring's ticks: t = intercept_ + slope_ * n.

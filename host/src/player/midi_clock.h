@@ -6,8 +6,9 @@
 // line through the last kWindow ticks (least squares: a DAW's clock jitters by a millisecond or
 // so, and MIDI through JACK moves once a period; four beats of ticks put the line within a
 // tenth of that, a lead ahead), so a beat's host time is known ahead; a tempo change
-// (two ticks in a row far off the line) restarts the fit from the change, so the new tempo is
-// followed within a few ticks. Ticks count while the clock is stopped too (DAWs send them), so
+// (two ticks in a row far off the line) restarts the fit from the change, anchored at the old
+// line's last tick (a clock's ticks run on through a change), so the new tempo is followed
+// within a few ticks. Ticks count while the clock is stopped too (DAWs send them), so
 // the grid is known before Start: the tick after Start is beat 0, the tick after Continue the
 // song position's.
 //
@@ -33,7 +34,12 @@ class ClockFollower {
   static constexpr int kTicksPerBeat = 24;
   static constexpr size_t kWindow = 96;  // ticks the line is fitted through: four beats
   static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
+  // A gap is whole ticks lost only within this many tick periods of a whole number, and the
+  // tick after it a period on within this too: a clock slowing down has gaps in between.
+  static constexpr double kLostSlack = 0.25;
   static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
+  static constexpr size_t kChangeMinTicks = 12;  // ticks on a line before a change to it is looked for
+  static constexpr size_t kHingeTicks = 8;       // a change began at most this many ticks before it was seen
 
   // Takes one message (kMidiClock*), in arrival order.
   void take(const ClockMessage &m);
@@ -46,19 +52,21 @@ class ClockFollower {
   double host_us_at(double beat) const;
   double beat_at(double host_us) const;
   double us_per_beat() const { return slope_ * kTicksPerBeat; }
-  // Ticks taken, and ticks found missing: a tick that comes two or more of the grid's tick
-  // periods after the one before stands for those it follows (a lossy MIDI path) once the next
-  // comes a period after it; when the next comes right after it, it was late instead (a stalled
-  // path delivers its ticks together), and late ticks are counted but kept out of the fit.
+  // Ticks taken, and ticks found missing: a tick that comes a whole number (two or more) of the
+  // grid's tick periods after the one before stands for those it follows (a lossy MIDI path)
+  // once the next comes a period after it; when the next comes right after it, it was late
+  // instead (a stalled path delivers its ticks together), and late ticks are counted but kept
+  // out of the fit; when the next comes a longer while after it, the clock slowed down.
   uint64_t ticks() const { return static_cast<uint64_t>(ticks_); }
   uint64_t lost_ticks() const { return lost_; }
 
  private:
   void fit();
   void note_change(double us);
+  size_t hinge_back(double us) const;
   struct Tick {
     int64_t n = 0;   // its number on the grid
-    double us = 0;   // when it came
+    double us = 0;   // when it came (the first after a tempo change: its time on the old line)
   };
   std::array<Tick, kWindow> ring_{};  // the last ticks, oldest at ring_[next_ % kWindow] once full
   size_t next_ = 0;          // ticks put in the ring so far
