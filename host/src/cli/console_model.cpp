@@ -216,8 +216,8 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     const PlayerStats &s = pb.stats;
     ConsoleLink l;
     l.name = pb.name;
-    l.health = pb.lost ? "lost" : "ok";
-    l.healthy = !pb.lost;
+    l.health = pb.lost ? "lost" : s.reconnecting ? "reconnecting" : "ok";
+    l.healthy = l.health == "ok";
     l.frames_sent = s.frames_sent;
     l.board_errors = s.queue_full + s.other_errors + s.late_reported;
     l.reconnects = static_cast<uint32_t>(s.reconnects);
@@ -225,7 +225,10 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     l.clock_ppm = s.ppm;
     l.clock_residual_us = s.residual_us;
     m.links.push_back(l);
-    if (pb.lost) m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
+    if (pb.lost)
+      m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
+    else if (s.reconnecting)
+      m.warnings.push_back(pb.name + ": link lost; reopening the port (its notes are dropped, the song goes on)");
     if (s.late_reported > 0)
       m.warnings.push_back(pb.name + ": " + std::to_string(s.late_reported) +
                            " notes came late (the host fell behind: try a longer --lead-ms)");

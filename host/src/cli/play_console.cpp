@@ -15,7 +15,11 @@ namespace stepchoir {
 const char *const kPlayKeysHelp = "space:pause/resume  Esc:stop  q:quit";
 
 PlayConsole::PlayConsole(std::vector<PlayBoard> boards, std::vector<std::vector<PlanEvent>> events, double a4_hz)
-    : boards_(std::move(boards)), events_(std::move(events)), a4_hz_(a4_hz), frames_before_(boards_.size(), 0) {
+    : boards_(std::move(boards)),
+      events_(std::move(events)),
+      a4_hz_(a4_hz),
+      frames_before_(boards_.size(), 0),
+      reconnects_(boards_.size(), 0) {
   for (size_t b = 0; b < boards_.size(); ++b) shared_.push_back(std::make_unique<Shared>());
   footer_.keys = kPlayKeysHelp;
 }
@@ -57,6 +61,9 @@ bool PlayConsole::update(const PlayerProgress &p) {
     std::lock_guard<std::mutex> hold(shared_[b]->lock);
     boards_[b].stats = shared_[b]->stats;
     boards_[b].lost = shared_[b]->lost.load();
+    if (boards_[b].stats.reconnects > reconnects_[b])
+      footer_.notices.push_back(boards_[b].name + ": the board is back; the song goes on from where it is");
+    reconnects_[b] = boards_[b].stats.reconnects;
   }
   ConsoleModel m = play_model(events_, boards_, p.position_s, a4_hz_);
   m.song = std::string(p.paused ? "paused " : "playing ") + clock_text(p.position_s) + " / " +

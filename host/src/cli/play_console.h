@@ -1,7 +1,8 @@
 // play_console.h: the console for `stepchoir play`: a row a song motor (the note it plays now
 // and its Hz, from the plan's events at the player's position; its board), each board's link
-// and song clock, where the song is, warnings (late entries, a lost board). Drawn on the
-// terminal (terminal.h) from player 0's progress callback on the main thread.
+// and song clock, where the song is, warnings (late entries, a lost board) and a message when a
+// lost board is back. Drawn on the terminal (terminal.h) from player 0's progress callback on
+// the main thread (also while player 0 reopens its lost board).
 //
 // Keys: space (or p) pauses and resumes, Esc stops the song (play has no stage to panic), q quits.
 #ifndef STEPCHOIR_HOST_CLI_PLAY_CONSOLE_H
@@ -52,6 +53,7 @@ class PlayConsole {
   double a4_hz_;
   std::vector<std::unique_ptr<Shared>> shared_;
   std::vector<uint64_t> frames_before_;
+  std::vector<uint64_t> reconnects_;  // by board, at the previous redraw: a rise is a board back
   uint64_t last_us_ = 0;
   ConsoleFooter footer_;
   bool quit_ = false;
