@@ -460,7 +460,7 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
   m = play_model(events, boards, 2.5, 440.0);
   m.song = "playing 0:02 / 0:03";
   REQUIRE(m.warnings.size() == 2);
-  CHECK(m.warnings[0].find("/dev/ttyACM0: 3 notes came late") == 0);
+  CHECK(m.warnings[0] == "/dev/ttyACM0: notes came late 3 times (host fell behind: longer --lead-ms)");
   CHECK(m.warnings[1].find("/dev/ttyACM1 is lost") == 0);
   CHECK(m.links[1].health == "lost");
   ConsoleFooter footer;
@@ -488,7 +488,7 @@ TEST_CASE("console: play says in plain words which board is being reopened, and 
   CHECK(m.links[1].health == "reconnecting");
   CHECK_FALSE(m.links[1].healthy);
   REQUIRE(m.warnings.size() == 1);
-  CHECK(m.warnings[0] == "/tmp/uno.pty: link lost; reopening the port (its notes are dropped, the song goes on)");
+  CHECK(m.warnings[0] == "/tmp/uno.pty: link lost; reopening the port, the song goes on without it");
   const std::vector<ScreenLine> lines = console_lines(m, ConsoleFooter{}, 24, 80);
   REQUIRE(lines.size() >= 6);
   // A pty's rows name it by its path under /dev ("pts/3"), not its last part alone ("3").

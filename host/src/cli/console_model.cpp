@@ -228,10 +228,13 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     if (pb.lost)
       m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
     else if (s.reconnecting)
-      m.warnings.push_back(pb.name + ": link lost; reopening the port (its notes are dropped, the song goes on)");
+      m.warnings.push_back(pb.name + ": link lost; reopening the port, the song goes on without it");
+    // The board answers `late` once a pass of its loop that took late entries: a count of
+    // times, not of notes (a stall's burst is once or a few).
     if (s.late_reported > 0)
-      m.warnings.push_back(pb.name + ": " + std::to_string(s.late_reported) +
-                           " notes came late (the host fell behind: try a longer --lead-ms)");
+      m.warnings.push_back(pb.name + ": notes came late " + std::to_string(s.late_reported) +
+                           (s.late_reported == 1 ? " time" : " times") +
+                           " (host fell behind: longer --lead-ms)");
   }
   return m;
 }
