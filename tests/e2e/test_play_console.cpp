@@ -1,6 +1,6 @@
 // test_play_console.cpp: `stepchoir play`'s console end to end, under tmux (console_pane.h),
-// with the real firmware on virtual boards. Esc stops the song: status 0, the terminal given
-// back, and the trace shows no step after the stop. A board lost mid-song: a warning names it
+// with the real firmware on virtual boards. The console is up while the clock is synced. Esc
+// stops the song: status 0, the terminal given back, and the trace shows no step after the stop. A board lost mid-song: a warning names it
 // while its port is reopened, the song's clock goes on, the console says when it is back, and
 // the board sounds again. A host stalled past the lead: the console's late-notes warning, with
 // the count play reports at its exit. Two boards: their motors' rows, labelled with their
@@ -99,12 +99,17 @@ tr::Trace paced_trace(const std::string &path, double *slipped_s = nullptr) {
 
 }  // namespace
 
-TEST_CASE("play: Esc on the console stops the song: status 0, the terminal back, no step after the stop",
+TEST_CASE("play: the console is up while syncing; Esc stops the song: status 0, the terminal back, no step after",
           "[e2e][play][console][pacing]") {
   const std::string trace = e2e::scratch("play-console-esc.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace, "--quiet", "--no-measure"});
   TmuxSession tmux(stepchoir_in_pane("play " + kCanon + " --port " + vb.pty(), false), 80, 24);
-  std::string screen = wait_playing(tmux, 3);
+  // While the board's clock is synced (a second or more), the console is up, every motor silent.
+  std::string screen = tmux.wait_for("stepchoir play  syncing with the board", 30);
+  expect_text(screen, "stepchoir play  syncing with the board\n");
+  CHECK(row_starts(screen, 0, " 0  --"));
+  CHECK(row_starts(screen, 3, " 3  --"));
+  screen = wait_playing(tmux, 3);
   double duration = 0;
   const double at_stop = position_s(screen, &duration);
   INFO("the screen:\n" << screen);

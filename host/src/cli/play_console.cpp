@@ -22,6 +22,12 @@ PlayConsole::PlayConsole(std::vector<PlayBoard> boards, std::vector<std::vector<
       reconnects_(boards_.size(), 0) {
   for (size_t b = 0; b < boards_.size(); ++b) shared_.push_back(std::make_unique<Shared>());
   footer_.keys = kPlayKeysHelp;
+  // Until the first progress call (each board's clock sync first: a second or more), the song's
+  // motors silent and the title saying why.
+  ConsoleModel m = play_model(events_, boards_, -1, a4_hz_);
+  m.song = "syncing with the board" + std::string(boards_.size() > 1 ? "s" : "");
+  const size_t rows = terminal_.rows(), cols = terminal_.cols();
+  if (rows > 0 && cols > 0) terminal_.draw(console_lines(m, footer_, rows, cols));
 }
 
 void PlayConsole::publish(size_t board, const PlayerStats &s) noexcept {
