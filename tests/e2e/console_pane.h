@@ -108,7 +108,8 @@ inline std::string stepchoir_in_pane(const std::string &args, bool jack = true) 
 inline std::vector<std::string> rows_of(const std::string &screen) {
   std::vector<std::string> rows;
   size_t at = 0;
-  for (size_t end; (end = screen.find('\n', at)) != std::string::npos; at = end + 1) rows.push_back(screen.substr(at, end - at));
+  for (size_t end; (end = screen.find('\n', at)) != std::string::npos; at = end + 1)
+    rows.push_back(screen.substr(at, end - at));
   return rows;
 }
 

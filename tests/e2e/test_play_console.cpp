@@ -1,11 +1,11 @@
 // test_play_console.cpp: `stepchoir play`'s console end to end, under tmux (console_pane.h),
 // with the real firmware on virtual boards. The console is up while the clock is synced. Esc
-// stops the song: status 0, the terminal given back, and the trace shows no step after the stop. A board lost mid-song: a warning names it
-// while its port is reopened, the song's clock goes on, the console says when it is back, and
-// the board sounds again. A host stalled past the lead: the console's late-notes warning, with
-// the count play reports at its exit. Two boards: their motors' rows, labelled with their
-// board, and a link row each. TERM=dumb: the progress line, and why. (Pause and q:
-// test_console.cpp.)
+// stops the song: status 0, the terminal given back, and the trace shows no step after the
+// stop. A board lost mid-song: a warning names it while its port is reopened, the song's clock
+// goes on, the console says when it is back, and the board sounds again. A host stalled past
+// the lead: the console says notes came late, as often as play reports at its exit. Two
+// boards: their motors' rows, labelled with their board, and a link row each. TERM=dumb: the
+// progress line, and why. (Pause and q: test_console.cpp.)
 #include <catch2/catch.hpp>
 
 #include <signal.h>
@@ -38,7 +38,8 @@ double position_s(const std::string &screen, double *duration_s = nullptr) {
   const std::string title = "stepchoir play  playing ";
   const size_t at = screen.find(title);
   int m = 0, s = 0, dm = 0, ds = 0;
-  if (at == std::string::npos || std::sscanf(screen.c_str() + at + title.size(), "%d:%d / %d:%d", &m, &s, &dm, &ds) != 4)
+  if (at == std::string::npos ||
+      std::sscanf(screen.c_str() + at + title.size(), "%d:%d / %d:%d", &m, &s, &dm, &ds) != 4)
     return -1;
   if (duration_s) *duration_s = dm * 60 + ds;
   return m * 60 + s;
@@ -99,7 +100,7 @@ tr::Trace paced_trace(const std::string &path, double *slipped_s = nullptr) {
 
 }  // namespace
 
-TEST_CASE("play: the console is up while syncing; Esc stops the song: status 0, the terminal back, no step after",
+TEST_CASE("play: the console is up while syncing, and Esc stops the song: status 0, the terminal back, no step after",
           "[e2e][play][console][pacing]") {
   const std::string trace = e2e::scratch("play-console-esc.csv");
   VboardProcess vb({"--board", "uno", "--trace", trace, "--quiet", "--no-measure"});
@@ -186,7 +187,8 @@ TEST_CASE("play: a board lost mid-song is named on the console while its port is
 
   // The board that came back sounds the song again.
   const std::vector<double> steps = step_times(paced_trace(trace));
-  const size_t after = static_cast<size_t>(std::count_if(steps.begin(), steps.end(), [&](double s) { return s > back_s; }));
+  const size_t after =
+      static_cast<size_t>(std::count_if(steps.begin(), steps.end(), [&](double s) { return s > back_s; }));
   std::printf("play console: lost board back: %zu steps after it came back\n", after);
   CHECK(after > 100);
 }
