@@ -51,8 +51,8 @@ std::unique_ptr<PlayConsole> open_play_console(std::vector<PlayBoard> boards, st
   }
 }
 
-bool PlayConsole::update(const PlayerProgress &p) {
-  publish(0, *p.stats);
+bool PlayConsole::update(const PlayerProgress &p, size_t board) {
+  if (p.stats) publish(board, *p.stats);
   for (int key = terminal_.key(0); key != Terminal::kNoKey; key = terminal_.key(0)) {
     if (key == ' ' || key == 'p') {
       toggle_play_pause();
