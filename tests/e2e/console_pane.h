@@ -151,15 +151,15 @@ inline void expect_row(const std::string &screen, int m, const std::string &text
 }
 
 // Types `key` (q by default; *key_s, when given, gets when: now_s), then checks that the command
-// said `goodbye`, exited 0 and gave the terminal back: reading lines and echoing, out of the
-// alternate screen, the cursor shown. The screen after the exit.
+// said `goodbye`, exited with `status` and gave the terminal back: reading lines and echoing,
+// out of the alternate screen, the cursor shown. The screen after the exit.
 inline std::string quit_and_check_terminal(TmuxSession &tmux, const std::string &goodbye, const std::string &key = "q",
-                                           double *key_s = nullptr) {
+                                           double *key_s = nullptr, int status = 0) {
   const double at = tmux.key(key);
   if (key_s) *key_s = at;
   const std::string screen = tmux.wait_for("TTY:");
   expect_text(screen, goodbye);
-  expect_text(screen, "EXIT=0");
+  expect_text(screen, "EXIT=" + std::to_string(status) + "\n");
   expect_text(screen, "TTY: icanon echo");
   CHECK(tmux.format("#{alternate_on}") == "0\n");
   CHECK(tmux.format("#{cursor_flag}") == "1\n");

@@ -2,7 +2,8 @@
 // with the real firmware on virtual boards. The console is up while the clock is synced. Esc
 // stops the song: status 0, the terminal given back, and the trace shows no step after the
 // stop. A board lost mid-song: a warning names it while its port is reopened, the song's clock
-// goes on, the console says when it is back, and the board sounds again. A host stalled past
+// goes on, the console says when it is back, and the board sounds again; on two boards, the
+// first lost for good, the console lives on from the second. A host stalled past
 // the lead: the console says notes came late, as often as play reports at its exit. Two
 // boards: their motors' rows, labelled with their board, and a link row each. TERM=dumb: the
 // progress line, and why. (Pause and q: test_console.cpp.)
@@ -191,6 +192,40 @@ TEST_CASE("play: a board lost mid-song is named on the console while its port is
       static_cast<size_t>(std::count_if(steps.begin(), steps.end(), [&](double s) { return s > back_s; }));
   std::printf("play console: lost board back: %zu steps after it came back\n", after);
   CHECK(after > 100);
+}
+
+TEST_CASE("play: on two boards, the first lost for good, the console lives on from the other and says so",
+          "[e2e][play][console][pacing]") {
+  const std::string link_a = e2e::scratch("pc-gone-a.pty"), trace_b = e2e::scratch("pc-gone-b.csv");
+  auto a = std::make_unique<VboardProcess>(
+      std::vector<std::string>{"--board", "uno", "--link", link_a, "--quiet", "--no-measure"});
+  VboardProcess b({"--board", "uno", "--trace", trace_b, "--quiet", "--no-measure"});
+  // Half tempo: 86 s, so that the song plays on well past the player's retries of board A.
+  TmuxSession tmux(
+      stepchoir_in_pane("play " + kBlues + " --tempo 0.5 --port " + link_a + " --port " + b.pty(), false), 132, 24);
+  std::string screen = wait_playing(tmux, 2);
+  {
+    INFO("the screen:\n" << screen);
+    REQUIRE(position_s(screen) >= 2);
+  }
+  a.reset();  // board A gone, for good
+  const std::string lost = link_a + " is lost: its notes are dropped, the other boards play on";
+  screen = tmux.wait_for(lost, 45);
+  const double lost_s = now_s(), lost_at = position_s(screen);
+  expect_text(screen, lost);
+  CHECK(link_row(screen, "pc-gone-a.pty").find(" lost ") != std::string::npos);
+  // Board A's player has ended: the console is drawn from board B's progress, and its keys work.
+  wait_ms(1500);
+  screen = tmux.screen();
+  expect_text(screen, lost);
+  CHECK(position_s(screen) >= lost_at + 1);
+  const std::string out = quit_and_check_terminal(tmux, "play: " + b.pty() + ": stopped, every motor silent", "q",
+                                                  nullptr, 1);
+  CHECK(out.find("play: " + link_a + ": board lost") != std::string::npos);
+  REQUIRE(b.stop() == 0);
+  // Board B played on after A was given up.
+  const std::vector<double> steps = step_times(paced_trace(trace_b));
+  CHECK(std::count_if(steps.begin(), steps.end(), [&](double s) { return s > lost_s; }) > 100);
 }
 
 TEST_CASE("play: a host stalled past the lead: the console says notes came late, as often as play reports",
