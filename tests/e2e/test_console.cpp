@@ -18,6 +18,7 @@
 
 #include "analysis.h"
 #include "board/child_process.h"
+#include "console_pane.h"
 #include "core/midi_event.h"
 #include "e2e_more.h"
 #include "live_rig.h"
@@ -25,113 +26,15 @@
 
 namespace tr = sc::trace;
 
+using namespace console_pane;
+
 namespace {
-
-void wait_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
-
-// A private tmux server (its own socket, no user configuration, no status bar) with one
-// detached session of cols x rows running `command`; killed with everything in it at the end.
-class TmuxSession {
- public:
-  TmuxSession(const std::string &command, int cols, int rows)
-      : socket_("stepchoir-e2e-" + std::to_string(::getpid())), conf_(e2e::scratch("tmux.conf")) {
-    std::ofstream(conf_) << "set -g status off\n";
-    tmux({"-f", conf_, "new-session", "-d", "-s", "console", "-x", std::to_string(cols), "-y", std::to_string(rows),
-          command});
-  }
-  ~TmuxSession() {
-    try {
-      tmux({"kill-server"});
-    } catch (const std::exception &) {
-    }
-  }
-  TmuxSession(const TmuxSession &) = delete;
-  TmuxSession &operator=(const TmuxSession &) = delete;
-
-  // The pane's screen, a line a row (wrapped lines joined).
-  std::string screen() { return tmux({"capture-pane", "-p", "-J", "-t", "console"}); }
-  // Types a key (tmux's names: "Space", "Escape", "q").
-  double key(const std::string &k) {
-    tmux({"send-keys", "-t", "console", k});
-    return Sender::now_s();
-  }
-  // A format of the pane: "#{alternate_on}", "#{cursor_flag}".
-  std::string format(const std::string &f) { return tmux({"display-message", "-p", "-t", "console", f}); }
-  // Waits up to 20 s for a screen that `shows`; that screen (the last one on failure).
-  template <class F>
-  std::string wait_until(F shows) {
-    std::string s;
-    for (int i = 0; i < 200; ++i) {
-      s = screen();
-      if (shows(s)) break;
-      wait_ms(100);
-    }
-    return s;
-  }
-  std::string wait_for(const std::string &text) {
-    return wait_until([&](const std::string &s) { return s.find(text) != std::string::npos; });
-  }
-
- private:
-  std::string tmux(std::vector<std::string> args) {
-    args.insert(args.begin(), {"/usr/bin/tmux", "-L", socket_});
-    stepchoir::ChildProcess p(args, true);
-    std::string out, line;
-    while (p.read_line(&line, 5000)) out += line + "\n";
-    if (p.wait() != 0) throw std::runtime_error("tmux " + args[3] + " failed");
-    return out;
-  }
-  std::string socket_, conf_;
-};
-
-// A shell command for a tmux pane: `stepchoir ARGS` (jack: on the test's JACK server), then its
-// exit status ("EXIT=0") and whether the terminal reads lines and echoes again ("TTY: icanon
-// echo"); then the pane stays, with its screen.
-std::string stepchoir_in_pane(const std::string &args, bool jack = true) {
-  const char *jack_server = std::getenv("JACK_DEFAULT_SERVER");
-  if (jack && !jack_server) throw std::runtime_error("no JACK server");
-  return std::string(jack ? std::string("env JACK_DEFAULT_SERVER=") + jack_server + " " : "") + STEPCHOIR_BIN + " " + args +
-         "; echo \"EXIT=$?\"; echo \"TTY: $(stty -a | tr ' ;' '\\n\\n' | grep -x -e icanon -e -icanon -e echo -e -echo | "
-         "tr '\\n' ' ')\"; sleep 600";
-}
-
-// Whether the screen's row of motor m (it starts with the motor's number) starts with `text`.
-bool row_starts(const std::string &screen, int m, const std::string &text) {
-  char start[8];
-  std::snprintf(start, sizeof start, "%2d  ", m);
-  size_t at = 0;
-  for (size_t end; (end = screen.find('\n', at)) != std::string::npos; at = end + 1)
-    if (screen.compare(at, 4, start) == 0) return screen.compare(at, text.size(), text) == 0;
-  return false;
-}
 
 // Whether every motor of the Uno's four is silent on the screen.
 bool all_silent(const std::string &screen) {
   for (int m = 0; m < 4; ++m)
     if (!row_starts(screen, m, " " + std::to_string(m) + "  --")) return false;
   return true;
-}
-
-// Checks that the screen shows text / that motor m's row starts with text; the screen with a failure.
-void expect_text(const std::string &screen, const std::string &text) {
-  INFO("the screen:\n" << screen);
-  CHECK(screen.find(text) != std::string::npos);
-}
-void expect_row(const std::string &screen, int m, const std::string &text) {
-  INFO("the screen:\n" << screen);
-  CHECK(row_starts(screen, m, text));
-}
-
-// Types q, then checks that the command said `goodbye`, exited 0 and gave the terminal back:
-// reading lines and echoing, out of the alternate screen, the cursor shown.
-void quit_and_check_terminal(TmuxSession &tmux, const std::string &goodbye) {
-  tmux.key("q");
-  const std::string screen = tmux.wait_for("TTY:");
-  expect_text(screen, goodbye);
-  expect_text(screen, "EXIT=0");
-  expect_text(screen, "TTY: icanon echo");
-  CHECK(tmux.format("#{alternate_on}") == "0\n");
-  CHECK(tmux.format("#{cursor_flag}") == "1\n");
 }
 
 }  // namespace
@@ -236,18 +139,6 @@ TEST_CASE("jam: the console under tmux shows the song's place, its clock and the
   expect_row(screen, 2, " 2  A4      440.00     +0  ");  // then its endstop hits once a status came
   rig.keys.send(stepchoir::note_off(0, 69));
   quit_and_check_terminal(tmux, "jam: stopped, every motor silent");
-}
-
-// Whether some motor's row (0-3) shows a note and its Hz: " 0  A4      440.00    +0   ...".
-bool some_motor_sounds(const std::string &screen) {
-  size_t at = 0;
-  for (size_t end; (end = screen.find('\n', at)) != std::string::npos; at = end + 1) {
-    const std::string row = screen.substr(at, end - at);
-    if (row.size() > 20 && row[0] == ' ' && row[1] >= '0' && row[1] <= '3' && row.compare(2, 2, "  ") == 0 &&
-        row[4] >= 'A' && row[4] <= 'G' && row.find('.') != std::string::npos)
-      return true;
-  }
-  return false;
 }
 
 TEST_CASE("play: the console under tmux shows the song's motors, pauses on space and quits on q",

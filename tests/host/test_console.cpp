@@ -500,7 +500,7 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
   m = play_model(events, boards, 2.5, 440.0);
   m.song = "playing 0:02 / 0:03";
   REQUIRE(m.warnings.size() == 2);
-  CHECK(m.warnings[0].find("/dev/ttyACM0: 3 notes came late") == 0);
+  CHECK(m.warnings[0] == "/dev/ttyACM0: notes came late 3 times (host fell behind: longer --lead-ms)");
   CHECK(m.warnings[1].find("/dev/ttyACM1 is lost") == 0);
   CHECK(m.links[1].health == "lost");
   ConsoleFooter footer;
@@ -514,4 +514,27 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
     CHECK(l.text.find("latency") == std::string::npos);
   }
   CHECK(lines.back().text == "keys");
+}
+
+TEST_CASE("console: play says in plain words which board is being reopened, and labels a pty's rows",
+          "[console][play]") {
+  const std::vector<std::vector<PlanEvent>> events{{PlanEvent{0.0, 0, false, 69}}, {PlanEvent{0.0, 0, false, 57}}};
+  std::vector<PlayBoard> boards{{"/dev/pts/3", 1, {}, false}, {"/tmp/uno.pty", 1, {}, false}};
+  boards[1].stats.reconnecting = true;
+  boards[1].stats.reconnects = 1;
+  const ConsoleModel m = play_model(events, boards, 0.5, 440.0);
+  REQUIRE(m.links.size() == 2);
+  CHECK(m.links[0].health == "ok");
+  CHECK(m.links[1].health == "reconnecting");
+  CHECK_FALSE(m.links[1].healthy);
+  REQUIRE(m.warnings.size() == 1);
+  CHECK(m.warnings[0] == "/tmp/uno.pty: link lost; reopening the port, the song goes on without it");
+  const std::vector<ScreenLine> lines = console_lines(m, ConsoleFooter{}, 24, 80);
+  REQUIRE(lines.size() >= 6);
+  // A pty's rows name it by its path under /dev ("pts/3"), not its last part alone ("3").
+  CHECK(lines[2].text == " 0  A4      440.00     +0   pts/3");
+  CHECK(lines[3].text == " 1  A3      220.00     +0   uno.pty");
+  CHECK(lines[4].text.rfind("pts/3 ", 0) == 0);
+  CHECK(lines[5].text.rfind("uno.pty ", 0) == 0);
+  CHECK(lines[5].text.find("reconnecting") != std::string::npos);
 }

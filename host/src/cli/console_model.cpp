@@ -217,8 +217,8 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     const PlayerStats &s = pb.stats;
     ConsoleLink l;
     l.name = pb.name;
-    l.health = pb.lost ? "lost" : "ok";
-    l.healthy = !pb.lost;
+    l.health = pb.lost ? "lost" : s.reconnecting ? "reconnecting" : "ok";
+    l.healthy = l.health == "ok";
     l.frames_sent = s.frames_sent;
     l.board_errors = s.queue_full + s.other_errors + s.late_reported;
     l.reconnects = static_cast<uint32_t>(s.reconnects);
@@ -226,10 +226,16 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     l.clock_ppm = s.ppm;
     l.clock_residual_us = s.residual_us;
     m.links.push_back(l);
-    if (pb.lost) m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
+    if (pb.lost)
+      m.warnings.push_back(pb.name + " is lost: its notes are dropped, the other boards play on");
+    else if (s.reconnecting)
+      m.warnings.push_back(pb.name + ": link lost; reopening the port, the song goes on without it");
+    // The board answers `late` once a pass of its loop that took late entries: a count of
+    // times, not of notes (a stall's burst is once or a few).
     if (s.late_reported > 0)
-      m.warnings.push_back(pb.name + ": " + std::to_string(s.late_reported) +
-                           " notes came late (the host fell behind: try a longer --lead-ms)");
+      m.warnings.push_back(pb.name + ": notes came late " + std::to_string(s.late_reported) +
+                           (s.late_reported == 1 ? " time" : " times") +
+                           " (host fell behind: longer --lead-ms)");
   }
   return m;
 }

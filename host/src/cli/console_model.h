@@ -162,8 +162,8 @@ struct PlayBoard {
 // The play console's model at position_s of the song: a row a song motor of every board (numbered
 // across the boards in order), its note and Hz those of its latest event at or before position_s
 // (A4 at a4_hz; silent: note -1); a link row a board from its player's stats (frames, errors,
-// reconnects, song clock; frames_per_s 0: the caller rates them); warnings for late entries and
-// lost boards. events: by board, plan_events() with the board's motor numbers, in time order.
+// reconnects, song clock; frames_per_s 0: the caller rates them); warnings for late entries, a
+// board being reopened (its stats' reconnecting) and boards lost for good. events: by board, plan_events() with the board's motor numbers, in time order.
 // Pure. Called from: PlayConsole, tests.
 ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const std::vector<PlayBoard> &boards,
                         double position_s, double a4_hz);

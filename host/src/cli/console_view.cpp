@@ -28,8 +28,11 @@ std::string format(const char *f, ...) {
   return buf;
 }
 
-// A port's last path part: "/dev/ttyACM0" -> "ttyACM0".
+// A port as a row shows it: under /dev/ its path there ("/dev/ttyACM0" -> "ttyACM0",
+// "/dev/pts/3" -> "pts/3": a last part alone would be a bare number), else its last part
+// ("/tmp/uno.pty" -> "uno.pty").
 std::string short_name(const std::string &path) {
+  if (path.rfind("/dev/", 0) == 0) return path.substr(5);
   const size_t slash = path.rfind('/');
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }

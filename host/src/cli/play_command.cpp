@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <thread>
@@ -371,22 +372,54 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     const bool show = !quiet && !rendering && ::isatty(2) && !console && !play_console;
     std::vector<char> ok(players.size(), 1);
     std::vector<std::thread> others;
+    // The latest progress of a board other than 0, its stats copied: play's console, keys and
+    // progress line go on from it once board 0's player has ended (its board lost for good, or
+    // its song over first) while another board plays on.
+    std::mutex latest_lock;
+    PlayerProgress latest;
+    PlayerStats latest_stats;
+    size_t latest_board = 0;
+    std::atomic<size_t> others_playing{players.size() - 1};
     for (size_t b = 1; b < players.size(); ++b)
       others.emplace_back([&, b] {
         ok[b] = players[b]->run(stop, g_pause, [&, b](const PlayerProgress &p) {
           if (console) console->publish_clock(b, *p.stats);
           if (play_console) play_console->publish(b, *p.stats);
+          std::lock_guard<std::mutex> hold(latest_lock);
+          latest = p;
+          latest_stats = *p.stats;
+          latest.stats = &latest_stats;
+          latest_board = b;
         });
         if (play_console) play_console->ended(b, ok[b]);
         gate.leave(b);
+        --others_playing;
       });
-    ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) {
-      if (console && !console->update(*session, p, midi_in.get())) stop = true;
-      if (play_console && !play_console->update(p)) stop = true;
+    // The main thread's share of a progress call: board's progress, its stats that board's.
+    auto on_main = [&](const PlayerProgress &p, size_t board) {
+      if (console && board == 0 && !console->update(*session, p, midi_in.get())) stop = true;
+      if (play_console && !play_console->update(p, board)) stop = true;
       if (keys && keys->poll()) stop = true;
       if (show) print_progress(p);
-    });
+    };
+    ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) { on_main(p, 0); });
+    if (play_console) play_console->ended(0, ok[0]);
     gate.leave(0);
+    while (!jamming && others_playing.load() > 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      PlayerProgress p;
+      PlayerStats st;
+      size_t board = 0;
+      {
+        std::lock_guard<std::mutex> hold(latest_lock);
+        if (!latest.stats) continue;
+        p = latest;
+        st = latest_stats;
+        board = latest_board;
+      }
+      p.stats = &st;
+      on_main(p, board);
+    }
     for (std::thread &t : others) t.join();
     console.reset();  // the terminal as it was, before the reports
     play_console.reset();

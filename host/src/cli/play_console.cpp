@@ -15,9 +15,19 @@ namespace stepchoir {
 const char *const kPlayKeysHelp = "space:pause/resume  Esc:stop  q:quit";
 
 PlayConsole::PlayConsole(std::vector<PlayBoard> boards, std::vector<std::vector<PlanEvent>> events, double a4_hz)
-    : boards_(std::move(boards)), events_(std::move(events)), a4_hz_(a4_hz), frames_before_(boards_.size(), 0) {
+    : boards_(std::move(boards)),
+      events_(std::move(events)),
+      a4_hz_(a4_hz),
+      frames_before_(boards_.size(), 0),
+      reconnects_(boards_.size(), 0) {
   for (size_t b = 0; b < boards_.size(); ++b) shared_.push_back(std::make_unique<Shared>());
   footer_.keys = kPlayKeysHelp;
+  // Until the first progress call (each board's clock sync first: a second or more), the song's
+  // motors silent and the title saying why.
+  ConsoleModel m = play_model(events_, boards_, -1, a4_hz_);
+  m.song = "syncing with the board" + std::string(boards_.size() > 1 ? "s" : "");
+  const size_t rows = terminal_.rows(), cols = terminal_.cols();
+  if (rows > 0 && cols > 0) terminal_.draw(console_lines(m, footer_, rows, cols));
 }
 
 void PlayConsole::publish(size_t board, const PlayerStats &s) noexcept {
@@ -41,8 +51,8 @@ std::unique_ptr<PlayConsole> open_play_console(std::vector<PlayBoard> boards, st
   }
 }
 
-bool PlayConsole::update(const PlayerProgress &p) {
-  publish(0, *p.stats);
+bool PlayConsole::update(const PlayerProgress &p, size_t board) {
+  if (p.stats) publish(board, *p.stats);
   for (int key = terminal_.key(0); key != Terminal::kNoKey; key = terminal_.key(0)) {
     if (key == ' ' || key == 'p') {
       toggle_play_pause();
@@ -57,6 +67,9 @@ bool PlayConsole::update(const PlayerProgress &p) {
     std::lock_guard<std::mutex> hold(shared_[b]->lock);
     boards_[b].stats = shared_[b]->stats;
     boards_[b].lost = shared_[b]->lost.load();
+    if (boards_[b].stats.reconnects > reconnects_[b])
+      footer_.notices.push_back(boards_[b].name + ": the board is back; the song goes on from where it is");
+    reconnects_[b] = boards_[b].stats.reconnects;
   }
   ConsoleModel m = play_model(events_, boards_, p.position_s, a4_hz_);
   m.song = std::string(p.paused ? "paused " : "playing ") + clock_text(p.position_s) + " / " +

@@ -38,6 +38,14 @@ Terminal::Terminal() {
   SCREEN *screen = newterm(nullptr, stdout, stdin);
   if (!screen) throw std::runtime_error("the console cannot use this terminal (TERM)");
   set_term(screen);
+  // A terminal that cannot move its cursor (TERM=dumb) would get every screen written one
+  // after the other.
+  char *const cup = tigetstr("cup");
+  if (cup == nullptr || cup == reinterpret_cast<char *>(-1)) {
+    endwin();
+    delscreen(set_term(nullptr));
+    throw std::runtime_error("the console needs a terminal that moves its cursor (TERM)");
+  }
   cbreak();
   noecho();
   nonl();

@@ -20,7 +20,8 @@ class Terminal {
   // Takes the terminal: the alternate screen, no echo, keys one at a time (Ctrl-C and
   // Ctrl-Z stay signals), a hidden cursor; stderr goes to a temporary file until the terminal
   // is given back (a library's stray message would scribble on the screen), then is printed.
-  // Throws std::runtime_error when stdin or stdout is no terminal, or TERM is unknown.
+  // Throws std::runtime_error when stdin or stdout is no terminal, or TERM is unknown or names
+  // one that cannot move its cursor (dumb).
   Terminal();
   // Gives the terminal back as it was (also on an exception or a signal's stop), then prints
   // what stderr got meanwhile.

@@ -362,6 +362,10 @@ bool Player::reopen(const std::atomic<bool> &stop) {
         throw std::runtime_error("a different board answered");
       break;
     } catch (const std::exception &e) {
+      stats_.reconnecting = true;
+      // The song goes on meanwhile (its place on the clock as last fitted); the caller's
+      // console and keys stay alive.
+      if (playing_) report(score_now(monotonic_us()), false);
       if (monotonic_us() - start > opt_.reconnect_s * 1e6) {
         error_ = "the board was lost and did not come back within " + std::to_string(static_cast<int>(opt_.reconnect_s)) +
                  " s (" + e.what() + ")";
@@ -372,6 +376,7 @@ bool Player::reopen(const std::atomic<bool> &stop) {
     }
   }
   board_lost_ = board_restarted_ = false;
+  stats_.reconnecting = false;
   decoder_ = sc::FrameDecoder();
   send_payload(watchdog_payload(sc::kWatchdogDefaultMs));
   // The same board back: the same crystal. The rate measured so far is the new fit's prior,
@@ -397,8 +402,28 @@ bool Player::reconnect(const std::atomic<bool> &stop) {
   return restore_at(at_s);
 }
 
+// Called from: run and reopen. Tells the caller where the song is: pos, song time with the
+// loops played counted in (at_end: the end, position_s the song's duration).
+void Player::report(double pos, bool paused, bool at_end) {
+  if (!on_progress_ || !*on_progress_) return;
+  PlayerProgress p;
+  p.duration_s = duration_s_;
+  p.stats = &stats_;
+  p.position_s = at_end     ? duration_s_
+                 : opt_.loop ? std::fmod(std::max(pos, 0.0), duration_s_)
+                             : std::max(0.0, std::min(pos, duration_s_));
+  p.loop = opt_.loop ? static_cast<unsigned>(std::max(pos, 0.0) / duration_s_) : 0;
+  p.paused = paused;
+  (*on_progress_)(p);
+}
+
 bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
                  const std::function<void(const PlayerProgress &)> &on_progress) {
+  on_progress_ = &on_progress;
+  struct Forget {  // on_progress lives only as long as this call
+    const std::function<void(const PlayerProgress &)> **p;
+    ~Forget() { *p = nullptr; }
+  } forget{&on_progress_};
   // The motors stop by themselves if this program dies. Not in board-time mode: the simulated
   // board runs several times faster than real time, so a host stalled for a moment would
   // starve its watchdog; it is this program's own child and ends with it anyway.
@@ -436,14 +461,13 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   bool paused = false;
   double paused_at = 0;
   uint64_t last_progress = 0;
-  PlayerProgress progress;
-  progress.duration_s = duration_s_;
-  progress.stats = &stats_;
+  double last_pos = 0;  // the last report's, for the one at the end
+  bool last_paused = false;
   for (;;) {
     if (stop.load()) break;
     if ((board_lost_ || board_restarted_) && !reconnect(stop)) {
       silence();
-      return false;
+      return stop.load();
     }
     uint64_t now = monotonic_us();
     if (!opt_.song_clock && pause.load() != paused) {
@@ -464,12 +488,11 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     if (!read_replies(1)) continue;
     now = monotonic_us();
     const double pos = paused ? paused_at : score_now(now);
-    if (now - last_progress >= 100000 && on_progress) {
+    if (now - last_progress >= 100000) {
       last_progress = now;
-      progress.position_s = opt_.loop ? std::fmod(std::max(pos, 0.0), duration_s_) : std::max(0.0, std::min(pos, duration_s_));
-      progress.loop = opt_.loop ? static_cast<unsigned>(std::max(pos, 0.0) / duration_s_) : 0;
-      progress.paused = paused;
-      on_progress(progress);
+      last_pos = pos;
+      last_paused = paused;
+      report(pos, paused);
     }
     // The end: every event sent and the last one played.
     if (!opt_.loop && cursor_ == events_.size() && pos > duration_s_ &&
@@ -488,10 +511,7 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     }
   } catch (const std::exception &) {
   }
-  if (on_progress) {
-    progress.position_s = duration_s_;
-    on_progress(progress);
-  }
+  report(last_pos, last_paused, true);
   return true;
 }
 

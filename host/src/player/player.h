@@ -86,6 +86,7 @@ struct PlayerStats {
   uint8_t last_error = 0;
   uint64_t clock_samples = 0;
   uint64_t reconnects = 0;         // board lost (cable, reset) and found again
+  bool reconnecting = false;       // the board is lost now: its port is being opened again
   double min_lead_ms = 1e9;        // the least time ahead of its start an entry was sent
   double ppm = 0;                  // the board's crystal error, as the clock fit has it now
   double rate_ppm = 0;             // the crystal error the timeline and the pitches use now
@@ -114,8 +115,10 @@ class Player {
 
   // Plays to the end (or forever with loop) unless *stop is set; *pause pauses (every motor
   // silent, the board's queue emptied) and resumes where it was. on_progress is called about
-  // every 100 ms. Leaves every motor silent and the drivers off. Returns false when the board
-  // was lost for good (the reason in error()).
+  // every 100 ms, also while a lost board is being opened again (stats.reconnecting; the
+  // greeting of a board that came back holds it up to about 2.5 s). Leaves every motor silent
+  // and the drivers off. Returns false when the board was lost for good (the reason in
+  // error()); true when *stop ended it, also while the board was lost.
   bool run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
            const std::function<void(const PlayerProgress &)> &on_progress);
 
@@ -140,6 +143,7 @@ class Player {
   bool send_at(double ticks, const std::vector<sc::PeriodEntry> &entries);
   bool restore_at(double score_s);           // entries for what sounds at score_s, at its time
   bool reopen(const std::atomic<bool> &stop);
+  void report(double pos, bool paused, bool at_end = false);  // on_progress_: where the song is
   bool reconnect(const std::atomic<bool> &stop);
   void silence();
 
@@ -175,6 +179,7 @@ class Player {
   uint64_t clock_starts_ = 0;        // song_clock: its starts seen so far
   bool clock_playing_ = false, clock_pending_ = false;  // ... the song plays / waits for its grid
   std::FILE *clock_log_ = nullptr;
+  const std::function<void(const PlayerProgress &)> *on_progress_ = nullptr;  // run's, while it runs
 };
 
 }  // namespace stepchoir
