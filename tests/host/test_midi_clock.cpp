@@ -187,6 +187,23 @@ TEST_CASE("midi clock: a lost tick does not shift the grid", "[clock]") {
   CHECK(f.host_us_at(2.0) == Approx(t).margin(1));  // tick 48 is beat 2
 }
 
+TEST_CASE("midi clock: two ticks held up, less each time, are neither lost ones nor a new tempo", "[clock]") {
+  // A stalled path: tick 60 comes 12 ms late (1.6 periods after tick 59), tick 61 8 ms late
+  // (0.8 periods after 60), then the clock is back on time. Counted as lost, the grid would
+  // move by a tick (20 ms); taken for a tempo change, the next beats would follow a tempo that
+  // is not there.
+  ClockFollower f;
+  f.take({kMidiClockStart, 0, 0});
+  double t = 1e9;
+  const double tick = 20000;  // 125 bpm
+  for (int i = 0; i < 96; ++i, t += tick)
+    f.take({kMidiClockTick, 0, uint64_t(t + (i == 60 ? 12000 : i == 61 ? 8000 : 0))});
+  CHECK(f.lost_ticks() == 0u);
+  CHECK(f.ticks() == 96u);
+  CHECK(f.us_per_beat() == Approx(24 * tick).epsilon(0.001));
+  CHECK(f.host_us_at(4.0) == Approx(t).margin(500));  // tick 96 is beat 4
+}
+
 TEST_CASE("midi clock: ticks held up and delivered together are not taken for lost ones", "[clock]") {
   ClockFollower f;
   f.take({kMidiClockStart, 0, 0});

@@ -13,14 +13,14 @@ void ClockFollower::take(const ClockMessage &m) {
       if (count_ >= 2 && slope_ > 0) {
         const double gap = (us - last_us_) / slope_;  // in the grid's tick periods
         if (pending_lost_ > 0) {  // the last tick came after a long gap: on time, or late?
-          if (std::fabs(gap - 1) < kLostSlack) {  // on time (this one a period after it): the ticks before it were lost
+          if (gap < 0.5) {  // late, with this one: out of the fit
+            --next_;
+            --count_;
+          } else if (std::fabs(gap - 1) < kLostSlack && lost_fits_better(us)) {  // on time: ticks lost
             ring_[(next_ - 1) % kWindow].n += pending_lost_;
             ticks_ += pending_lost_;
             lost_ += static_cast<uint64_t>(pending_lost_);
-          } else if (gap < 0.5) {  // late, with this one: out of the fit
-            --next_;
-            --count_;
-          }  // else neither: the clock slowed down (a tempo change, which note_change sees)
+          }  // else both late by less each time, or the clock slowed down (note_change sees that)
           pending_lost_ = 0;
         }
         last_us_ = us;
@@ -29,8 +29,7 @@ void ClockFollower::take(const ClockMessage &m) {
           break;
         }
         const int64_t whole = std::llround(gap);
-        if (whole >= 2 && whole <= kMaxLostRun && std::fabs(gap - static_cast<double>(whole)) < kLostSlack)
-          pending_lost_ = whole - 1;
+        if (whole >= 2 && whole <= kMaxLostRun) pending_lost_ = whole - 1;
       }
       last_us_ = us;
       note_change(us);
@@ -64,9 +63,24 @@ void ClockFollower::take(const ClockMessage &m) {
   }
 }
 
+// Called from: take, for the tick after one that came after a long gap (us: when it came). Are
+// the two on the line with pending_lost_ ticks lost before them (both on time), closer than
+// without (both held up, the second less)? Squared distances from the line (the long-gap tick is
+// one of up to kWindow ticks in it).
+bool ClockFollower::lost_fits_better(double us) const {
+  const Tick &last = ring_[(next_ - 1) % kWindow];
+  const double n = static_cast<double>(last.n), lost = static_cast<double>(pending_lost_);
+  const auto sq = [](double x) { return x * x; };
+  const double held = sq(last.us - (intercept_ + slope_ * n)) + sq(us - (intercept_ + slope_ * (n + 1)));
+  const double gone =
+      sq(last.us - (intercept_ + slope_ * (n + lost))) + sq(us - (intercept_ + slope_ * (n + lost + 1)));
+  return gone < held;
+}
+
 // Called from: take, for a tick about to join the fit (us: when it came). A tick more than
-// kChangeUs off the line, after another off it the same way, is a tempo change (the clock's
-// jitter, a millisecond or two, never goes that far twice in a row): the fit forgets the ticks
+// kChangeUs off the line, after another off it the same way but less far, is a tempo change
+// (the clock's jitter, a millisecond or two, never goes that far twice in a row; ticks a stalled
+// path held up come back towards the line): the fit forgets the ticks
 // before the change and keeps the last one on the old line, at its time on that line (a
 // fraction of the jitter off), where the new tempo turns, so the new tempo takes over within a
 // few ticks rather than a beat.
@@ -77,7 +91,11 @@ void ClockFollower::note_change(double us) {
   }
   const double residual = us - (intercept_ + slope_ * static_cast<double>(ticks_));
   const int sign = residual > 0 ? 1 : -1;
-  if (std::fabs(residual) <= kChangeUs || (change_run_ > 0 && sign != change_sign_)) {
+  // A new tempo's ticks go further off the line each time; ticks held up by a stalled path
+  // come back to it.
+  const bool further = std::fabs(residual) > std::fabs(change_residual_);
+  change_residual_ = residual;
+  if (std::fabs(residual) <= kChangeUs || (change_run_ > 0 && (sign != change_sign_ || !further))) {
     change_run_ = std::fabs(residual) > kChangeUs ? 1 : 0;
     change_sign_ = sign;
     return;
@@ -112,7 +130,10 @@ size_t ClockFollower::hinge_back(double us) const {
     for (size_t k = 0; k <= j; ++k) rss += std::pow(t[k] - (intercept_ + slope_ * n[k]), 2);
     const double at = intercept_ + slope_ * n[j];
     double sxy = 0, sxx = 0;
-    for (size_t k = j + 1; k <= m; ++k) sxy += (n[k] - n[j]) * (t[k] - at), sxx += (n[k] - n[j]) * (n[k] - n[j]);
+    for (size_t k = j + 1; k <= m; ++k) {
+      sxy += (n[k] - n[j]) * (t[k] - at);
+      sxx += (n[k] - n[j]) * (n[k] - n[j]);
+    }
     const double tick_us = sxy / sxx;  // the new tempo's tick
     for (size_t k = j + 1; k <= m; ++k) rss += std::pow(t[k] - at - tick_us * (n[k] - n[j]), 2);
     if (j == 0 || rss < best_rss) best_rss = rss, best = j;

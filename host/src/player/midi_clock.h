@@ -34,9 +34,7 @@ class ClockFollower {
   static constexpr int kTicksPerBeat = 24;
   static constexpr size_t kWindow = 96;  // ticks the line is fitted through: four beats
   static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
-  // A gap is whole ticks lost only within this many tick periods of a whole number, and the
-  // tick after it a period on within this too: a clock slowing down has gaps in between.
-  static constexpr double kLostSlack = 0.25;
+  static constexpr double kLostSlack = 0.25;  // after lost ticks the next comes a period on, within this
   static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
   static constexpr size_t kChangeMinTicks = 12;  // ticks on a line before a change to it is looked for
   static constexpr size_t kHingeTicks = 8;       // a change began at most this many ticks before it was seen
@@ -52,11 +50,12 @@ class ClockFollower {
   double host_us_at(double beat) const;
   double beat_at(double host_us) const;
   double us_per_beat() const { return slope_ * kTicksPerBeat; }
-  // Ticks taken, and ticks found missing: a tick that comes a whole number (two or more) of the
-  // grid's tick periods after the one before stands for those it follows (a lossy MIDI path)
-  // once the next comes a period after it; when the next comes right after it, it was late
-  // instead (a stalled path delivers its ticks together), and late ticks are counted but kept
-  // out of the fit; when the next comes a longer while after it, the clock slowed down.
+  // Ticks taken, and ticks found missing: a tick that comes two or more of the grid's tick
+  // periods after the one before stands for those it follows (a lossy MIDI path) when the next
+  // comes a period after it and the two lie closer to the line counted so than as the next
+  // ticks (held up, less each time); when the next comes right after it, it was late (a stalled
+  // path delivers its ticks together), and late ticks are counted but kept out of the fit; when
+  // the next comes later than a period, the clock slowed down.
   uint64_t ticks() const { return static_cast<uint64_t>(ticks_); }
   uint64_t lost_ticks() const { return lost_; }
 
@@ -64,6 +63,7 @@ class ClockFollower {
   void fit();
   void note_change(double us);
   size_t hinge_back(double us) const;
+  bool lost_fits_better(double us) const;
   struct Tick {
     int64_t n = 0;   // its number on the grid
     double us = 0;   // when it came (the first after a tempo change: its time on the old line)
@@ -77,6 +77,7 @@ class ClockFollower {
   size_t count_ = 0;         // ticks in the ring
   size_t change_run_ = 0;    // ticks in a row more than kChangeUs off the line, one way
   int change_sign_ = 0;      // that way: +1 late, -1 early
+  double change_residual_ = 0;  // the last tick's distance from the line, us
   double intercept_ = 0, slope_ = 0;  // host us of tick n: intercept_ + slope_ * n
   int64_t zero_tick_ = 0;    // the tick that is the song's beat 0 (after Start), or its position
   bool running_ = false;

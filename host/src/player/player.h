@@ -132,6 +132,11 @@ class Player {
   Player &operator=(const Player &) = delete;
 
  private:
+  // Clock round trips this often (us) while syncing before the first note and while waiting
+  // for the other boards (7 bytes each, under 1 % of the link).
+  static constexpr uint64_t kSyncEveryUs = 10000;
+  // The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent).
+  static constexpr double kRateSigmaPpm = 30.0;
   bool send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us = nullptr);
   void send_clock_request(uint64_t now_us);
   bool read_replies(int timeout_ms);
