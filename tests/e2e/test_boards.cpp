@@ -146,9 +146,9 @@ TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 brid
   const double p99 = off_us[static_cast<size_t>(0.99 * static_cast<double>(off_us.size() - 1))];
   std::printf("two boards: mean onsets %+.1f us apart; onsets p99 %.1f us, max %.1f us off one line\n",
               (mean_a - mean_b) * 1e6, p99, off_us.back());
-  // The boards start within a millisecond of each other (the target, 0.5 ms, is met in most runs:
-  // bench/results/multi-board.md); their onsets keep to one line.
-  CHECK(std::fabs(mean_a - mean_b) <= 1e-3);
+  // Issue 23's targets: the boards' mean onsets within 0.5 ms of each other, onsets p99 within
+  // 1 ms of one line (figures: bench/results/multi-board.md).
+  CHECK(std::fabs(mean_a - mean_b) <= 0.5e-3);
   CHECK(p99 <= 1e3);
 }
 
