@@ -7,6 +7,7 @@
 #include <string>
 
 #include "play_checks.h"
+#include "stepchoir_protocol.h"
 #include "vboard_process.h"
 
 using namespace stepchoir;
@@ -35,9 +36,10 @@ TEST_CASE("doctor: each board's firmware and round trip, a slow bridge with its 
   CHECK(status == 1);  // the slow bridge at least
   CHECK(out.find("ok   configuration: " + file + " (2 boards)") != std::string::npos);
   CHECK(out.find("ok   " + fast.pty() + ": readable and writable") != std::string::npos);
-  CHECK(out.find("ok   " + fast.pty() + ": uno_cnc_shield_v3, 4 motors, protocol 1") != std::string::npos);
+  const std::string protocol = ", protocol " + std::to_string(sc::kProtocolVersion);  // the host's own: no mismatch
+  CHECK(out.find("ok   " + fast.pty() + ": uno_cnc_shield_v3, 4 motors" + protocol) != std::string::npos);
   CHECK(out.find("ok   " + fast.pty() + ": round trip p50 ") != std::string::npos);  // the 16U2: about 4 ms
-  CHECK(out.find("ok   " + slow.pty() + ": mega_ramps_14, 5 motors, protocol 1") != std::string::npos);
+  CHECK(out.find("ok   " + slow.pty() + ": mega_ramps_14, 5 motors" + protocol) != std::string::npos);
   CHECK(out.find("FIX  " + slow.pty() + ": round trip p50 ") != std::string::npos);  // the FTDI's 16 ms
   CHECK(out.find("latency_timer") != std::string::npos);
   CHECK(out.find("real time: ") != std::string::npos);
