@@ -299,12 +299,20 @@ TEST_CASE("play: on two boards the console shows each board's motors labelled wi
   INFO("the screen:\n" << screen);
   for (int m = 0; m < 8; ++m) {
     INFO("motor " << m);
-    CHECK(ends_with_label(motor_row(screen, m), m < 4 ? label_a : label_b));
+    const std::string row = motor_row(screen, m);
+    CHECK(ends_with_label(row, m < 4 ? label_a : label_b));
+    // Its board's status came (asked four times a second): the row's endstop hits, a count.
+    REQUIRE(row.size() > 34);
+    const std::string ends = row.substr(27, 5);
+    const size_t digit = ends.find_first_not_of(' ');
+    CHECK(digit != std::string::npos);
+    CHECK(ends.find_first_not_of("0123456789", digit == std::string::npos ? 0 : digit) == std::string::npos);
   }
   CHECK(motor_row(screen, 8).empty());
   for (const std::string &label : {label_a, label_b}) {
     INFO("board " << label);
     CHECK(link_row(screen, label).find(" ok ") != std::string::npos);
+    CHECK(link_row(screen, label).find(" ends ") != std::string::npos);
   }
   size_t clocks = 0;
   for (const std::string &row : rows_of(screen)) clocks += row.find("  song clock ") == 0;

@@ -347,10 +347,13 @@ TEST_CASE("console: a motor's row shows its own endstop hits - the link row its 
   CHECK(lines[4].text == " 2  --                        12  " + middle);
   CHECK(lines[5].text.rfind(" 3  --                            |  ", 0) == 0);
   CHECK(lines[6].text.find(" ends 14") != std::string::npos);
-  // play: the board's name after the cents, no count (the player reads no status)
+  // play: the same count and rail, a bar narrower by the board's name after it
   m.command = "play";
   m.motors[0].board = "/dev/ttyACM0";
-  CHECK(console_lines(m, ConsoleFooter{}, 24, 80)[2].text == " 0  A4      440.00     +0   ttyACM0");
+  const std::string row = console_lines(m, ConsoleFooter{}, 24, 80)[2].text;
+  CHECK(row.rfind(" 0  A4      440.00     +0      0  |", 0) == 0);
+  CHECK(row.size() == 34 + 38 + 8);
+  CHECK(row.substr(row.size() - 9) == "| ttyACM0");
 }
 
 TEST_CASE("console: jam's screen: the song's place, the rig's motor numbers, each board's clock", "[console]") {
@@ -464,7 +467,7 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
   const std::vector<std::vector<PlanEvent>> events{
       {on(0.0, 0, 69), on(0.5, 1, 60), off(1.0, 0), on(1.5, 0, 72.2), off(2.0, 1)},
       {on(1.0, 0, 57)}};
-  std::vector<PlayBoard> boards{{"/dev/ttyACM0", 2, {}, false}, {"/dev/ttyACM1", 1, {}, false}};
+  std::vector<PlayBoard> boards{{"/dev/ttyACM0", 2, {}, false, {}, {}}, {"/dev/ttyACM1", 1, {}, false, {}, {}}};
   boards[1].stats.frames_sent = 42;
   boards[1].stats.clock_samples = 3;
   boards[1].stats.ppm = 2493.7;
@@ -507,7 +510,8 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
   footer.keys = "keys";
   const std::vector<ScreenLine> lines = console_lines(m, footer, 24, 80);
   CHECK(lines[0].text == "stepchoir play  playing 0:02 / 0:03");
-  CHECK(lines[2].text == " 0  C5      529.33    +20   ttyACM0");
+  CHECK(lines[2].text.rfind(" 0  C5      529.33    +20  ", 0) == 0);  // no status yet: no count, no carriage
+  CHECK(lines[2].text.find_first_not_of(' ', 27) == lines[2].text.size() - 7);
   CHECK(lines[2].text.find("ttyACM0") != std::string::npos);
   for (const ScreenLine &l : lines) {
     CHECK(l.text.find("MIDI") == std::string::npos);
@@ -519,7 +523,7 @@ TEST_CASE("console: play's rows from the plan's events at the player's position"
 TEST_CASE("console: play says in plain words which board is being reopened, and labels a pty's rows",
           "[console][play]") {
   const std::vector<std::vector<PlanEvent>> events{{PlanEvent{0.0, 0, false, 69}}, {PlanEvent{0.0, 0, false, 57}}};
-  std::vector<PlayBoard> boards{{"/dev/pts/3", 1, {}, false}, {"/tmp/uno.pty", 1, {}, false}};
+  std::vector<PlayBoard> boards{{"/dev/pts/3", 1, {}, false, {}, {}}, {"/tmp/uno.pty", 1, {}, false, {}, {}}};
   boards[1].stats.reconnecting = true;
   boards[1].stats.reconnects = 1;
   const ConsoleModel m = play_model(events, boards, 0.5, 440.0);
@@ -532,9 +536,59 @@ TEST_CASE("console: play says in plain words which board is being reopened, and 
   const std::vector<ScreenLine> lines = console_lines(m, ConsoleFooter{}, 24, 80);
   REQUIRE(lines.size() >= 6);
   // A pty's rows name it by its path under /dev ("pts/3"), not its last part alone ("3").
-  CHECK(lines[2].text == " 0  A4      440.00     +0   pts/3");
-  CHECK(lines[3].text == " 1  A3      220.00     +0   uno.pty");
+  CHECK(lines[2].text.rfind(" 0  A4      440.00     +0  ", 0) == 0);
+  CHECK(lines[2].text.substr(lines[2].text.size() - 6) == " pts/3");
+  CHECK(lines[3].text.substr(lines[3].text.size() - 8) == " uno.pty");
   CHECK(lines[4].text.rfind("pts/3 ", 0) == 0);
   CHECK(lines[5].text.rfind("uno.pty ", 0) == 0);
   CHECK(lines[5].text.find("reconnecting") != std::string::npos);
+}
+
+TEST_CASE("console: play's rows show each carriage and its endstop hits from the board's status", "[console][play]") {
+  // The song plays board motors 1 and 3 (plan motors 0 and 1) on a 400-step rail and an
+  // unlimited one; the board's status reply, as the player keeps it.
+  const std::vector<std::vector<PlanEvent>> events{{PlanEvent{0.0, 0, false, 69}, PlanEvent{0.0, 1, false, 57}}};
+  std::vector<PlayBoard> boards{{"/dev/ttyACM0", 2, {}, false, {1, 3}, {400, 0}}};
+  ConsoleModel m = play_model(events, boards, 0.5, 440.0);
+  CHECK_FALSE(m.motors[0].has_position);  // no status reply yet: blank
+  std::vector<ScreenLine> lines = console_lines(m, ConsoleFooter{}, 24, 80);
+  CHECK(lines[2].text.substr(0, 34) == " 0  A4      440.00     +0         ");
+
+  PlayerStats &s = boards[0].stats;
+  s.has_status = true;
+  s.motor_position[1] = 100;
+  s.motor_reversals[1] = 7;
+  s.motor_position[3] = -250;
+  s.motor_reversals[3] = 0;
+  s.motor_flags[3] = sc::kMotorEndstopFault;
+  s.motor_position[0] = 999;  // a motor the song does not play
+  s.motor_reversals[0] = 5;
+  s.board_reversals = 12;
+  m = play_model(events, boards, 0.5, 440.0);
+  REQUIRE(m.motors.size() == 2);
+  CHECK(m.motors[0].has_position);
+  CHECK(m.motors[0].position_steps == 100);
+  CHECK(m.motors[0].travel_steps == 400);
+  CHECK(m.motors[0].reversals == 7);
+  CHECK_FALSE(m.motors[0].switch_fault);
+  CHECK(m.motors[1].position_steps == -250);
+  CHECK(m.motors[1].reversals == 0);
+  CHECK(m.motors[1].switch_fault);
+  CHECK(m.links[0].reversals == 12);
+  lines = console_lines(m, ConsoleFooter{}, 24, 80);
+  // Row 0: its hits, then its carriage a quarter along the rail, then the board.
+  CHECK(lines[2].text.substr(0, 34) == " 0  A4      440.00     +0      7  ");
+  const std::string bar = lines[2].text.substr(34, lines[2].text.find(" ttyACM0") - 34);
+  REQUIRE(bar.size() >= 7);
+  CHECK(bar.front() == '|');
+  CHECK(bar.back() == '|');
+  const size_t at = bar.find('o');  // the carriage ('|' ends, ':' the middle)
+  REQUIRE(at != std::string::npos);
+  CHECK(std::fabs(double(at - 1) / double(bar.size() - 3) - 0.25) < 0.05);
+  CHECK(lines[2].text.size() <= 80);
+  CHECK(lines[2].text.substr(lines[2].text.size() - 8) == " ttyACM0");
+  // Row 1: no rail (unlimited travel): its position in steps; its stuck switch said.
+  CHECK(lines[3].text.find("pos -250") != std::string::npos);
+  CHECK(lines[3].text.find("switch stuck") != std::string::npos);
+  CHECK(lines[4].text.find("ends 12") != std::string::npos);
 }

@@ -209,12 +209,21 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
       rows[e.motor].hz = note_hz(e.pitch, a4_hz);
       rows[e.motor].cents = (e.pitch - rows[e.motor].note) * 100.0;
     }
-    for (ConsoleMotor &r : rows) {
+    const PlayerStats &s = pb.stats;
+    for (size_t k = 0; k < rows.size(); ++k) {
+      ConsoleMotor &r = rows[k];
       r.number = m.motors.size();
       r.board = pb.name;
+      const size_t on_board = k < pb.board_motor.size() ? pb.board_motor[k] : k;
+      if (s.has_status && on_board < sc::kMaxMotors) {
+        r.has_position = true;
+        r.position_steps = s.motor_position[on_board];
+        r.reversals = s.motor_reversals[on_board];
+        r.switch_fault = (s.motor_flags[on_board] & sc::kMotorEndstopFault) != 0;
+      }
+      if (k < pb.travel_steps.size()) r.travel_steps = pb.travel_steps[k];
       m.motors.push_back(r);
     }
-    const PlayerStats &s = pb.stats;
     ConsoleLink l;
     l.name = pb.name;
     l.health = pb.lost ? "lost" : s.reconnecting ? "reconnecting" : "ok";
@@ -222,6 +231,7 @@ ConsoleModel play_model(const std::vector<std::vector<PlanEvent>> &events, const
     l.frames_sent = s.frames_sent;
     l.board_errors = s.queue_full + s.other_errors + s.late_reported;
     l.reconnects = static_cast<uint32_t>(s.reconnects);
+    l.reversals = s.board_reversals;
     l.has_clock = s.clock_samples > 0;
     l.clock_ppm = s.ppm;
     l.clock_residual_us = s.residual_us;

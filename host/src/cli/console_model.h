@@ -157,11 +157,14 @@ struct PlayBoard {
   size_t motors = 0;     // its motors that play the song (plan motors, in board order)
   PlayerStats stats;     // its player's, as last published
   bool lost = false;     // its player gave up (the board is gone): its notes are dropped
+  std::vector<uint8_t> board_motor;     // by plan motor: its number on the board
+  std::vector<uint32_t> travel_steps;   // by plan motor: its rail (config/rig.h motor_travel)
 };
 
 // The play console's model at position_s of the song: a row a song motor of every board (numbered
 // across the boards in order), its note and Hz those of its latest event at or before position_s
-// (A4 at a4_hz; silent: note -1); a link row a board from its player's stats (frames, errors,
+// (A4 at a4_hz; silent: note -1), its carriage and endstop hits from the board's latest status
+// reply; a link row a board from its player's stats (frames, errors, endstop hits,
 // reconnects, song clock; frames_per_s 0: the caller rates them); warnings for late entries, a
 // board being reopened (its stats' reconnecting) and boards lost for good. events: by board, plan_events() with the board's motor numbers, in time order.
 // Pure. Called from: PlayConsole, tests.

@@ -50,21 +50,26 @@ std::string title(const ConsoleModel &m) {
   return t;
 }
 
-// A motor's row: number, note, Hz, cents; live and jam then its endstop hits (blank until a
-// status reply came) and its rail, play the board it is on.
+// A motor's row: number, note, Hz, cents, its endstop hits (blank until a status reply came)
+// and its rail; play then the board it is on.
 ScreenLine motor_line(const ConsoleMotor &mo, size_t cols) {
   const bool sounding = mo.note >= 0;
   std::string line = format("%2zu  %-4s %9s %6s  ", mo.number, motor_note_name(mo.note).c_str(),
                             sounding ? format("%.2f", mo.hz).c_str() : "",
                             sounding ? format("%+.0f", std::fabs(mo.cents) < 0.5 ? 0.0 : mo.cents).c_str() : "");
-  if (mo.board.empty()) line += format("%5s  ", mo.has_position ? std::to_string(mo.reversals).c_str() : "");
-  const size_t room = cols > kRowFixed + kRowFlags ? cols - kRowFixed - kRowFlags : 0;
+  line += format("%5s  ", mo.has_position ? std::to_string(mo.reversals).c_str() : "");
+  std::string tail;  // after the bar
+  if (mo.muted) tail += " muted";
+  if (mo.song) tail += " song";
+  if (mo.switch_fault) tail += " switch stuck";
+  if (!mo.board.empty()) tail += " " + short_name(mo.board);
+  // The bar leaves room for " muted" at least, and for all the tail where the row can spare it.
+  const size_t spare = cols > kRowFixed + kBarMin ? cols - kRowFixed - kBarMin : 0;
+  const size_t after = std::max(kRowFlags, std::min(tail.size(), spare));
+  const size_t room = cols > kRowFixed + after ? cols - kRowFixed - after : 0;
   const size_t bar = std::min(room, kBarMax);
-  if (bar >= kBarMin && mo.board.empty()) line += rail_bar(mo, bar);  // play: the board, no rail
-  if (mo.muted) line += " muted";
-  if (mo.song) line += " song";
-  if (mo.switch_fault) line += " switch stuck";
-  if (!mo.board.empty()) line += " " + short_name(mo.board);
+  if (bar >= kBarMin) line += rail_bar(mo, bar);
+  line += tail;
   return {line, mo.muted ? LineStyle::kMuted : sounding ? LineStyle::kSounding : LineStyle::kNormal};
 }
 
@@ -130,7 +135,8 @@ std::string rail_bar(const ConsoleMotor &m, size_t width) {
 std::vector<ScreenLine> console_lines(const ConsoleModel &m, const ConsoleFooter &f, size_t rows, size_t cols) {
   enum Part { kHeading, kMotors, kLinks, kLatency, kMidi, kWarnings, kLearn, kNotices, kParts };
   std::vector<ScreenLine> part[kParts];
-  part[kHeading].push_back({m.command == "play" ? " #  note        Hz  cents  board" : " #  note        Hz  cents   ends  rail",
+  part[kHeading].push_back({m.command == "play" ? " #  note        Hz  cents   ends  rail, board"
+                                                : " #  note        Hz  cents   ends  rail",
                             LineStyle::kHeading});
   for (const ConsoleMotor &mo : m.motors) part[kMotors].push_back(motor_line(mo, cols));
   for (const ConsoleLink &l : m.links) add_link_lines(l, &part[kLinks]);

@@ -327,7 +327,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     std::unique_ptr<PlayConsole> play_console;  // play on a terminal: the console (its keys: play's)
     if (!jamming && !rendering && !quiet && !plain) {
       std::vector<PlayBoard> pbs;
-      for (const BoardRun &r : boards) pbs.push_back(PlayBoard{r.path, r.song_ids.size(), {}, false});
+      for (const BoardRun &r : boards) {
+        PlayBoard pb{r.path, r.song_ids.size(), {}, false, r.song_ids, {}};
+        for (uint8_t m : r.song_ids) pb.travel_steps.push_back(motor_travel(r.settings, m));
+        pbs.push_back(pb);
+      }
       play_console = open_play_console(pbs, events, rig.config.a4_hz);
     }
     std::vector<std::unique_ptr<Board>> song_board_for_jam;  // jam: the live session's link stays open

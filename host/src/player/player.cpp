@@ -310,6 +310,13 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     // A clock request only on an idle line: one queued behind note frames reaches the board
     // late, and its sample would read the board's clock as ahead.
     if (now >= last_clock_us_ + clock_every_us && static_cast<double>(now) >= line_free_us_) send_clock_request(now);
+    // The carriages and endstop hits (the console's), on an idle line too; a shared board's
+    // live writer asks for them itself.
+    if (opt_.exclusive && !opt_.board_time && now >= last_status_us_ + kStatusEveryUs &&
+        static_cast<double>(now) >= line_free_us_) {
+      last_status_us_ = now;
+      send_payload({sc::kMsgStatusReq});
+    }
     const bool on_clock = !opt_.song_clock || follow_clock();
     if (!paused && on_clock && !send_due(now)) continue;
     if (!read_replies(1)) continue;

@@ -94,6 +94,14 @@ struct PlayerStats {
   // The board's own counters at the end (status reply; -1: none came).
   long board_frames_bad = -1, board_overruns = -1;
   uint8_t board_last_error = 0;
+  // Its latest status reply while the song plays (play only; every kStatusEveryUs): each board
+  // motor's carriage position (steps), endstop hits since the song began and flags
+  // (sc::kMotorEndstopFault ...); the board's hits in all.
+  bool has_status = false;
+  int32_t motor_position[sc::kMaxMotors] = {};
+  uint16_t motor_reversals[sc::kMaxMotors] = {};
+  uint8_t motor_flags[sc::kMaxMotors] = {};
+  uint16_t board_reversals = 0;
 };
 
 struct PlayerProgress {
@@ -137,9 +145,13 @@ class Player {
   static constexpr uint64_t kSyncEveryUs = 10000;
   // The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent).
   static constexpr double kRateSigmaPpm = 30.0;
+  // Playing on its own board, a status request this often (us): the console's carriages and
+  // endstop hits.
+  static constexpr uint64_t kStatusEveryUs = 250000;
   bool send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us = nullptr);
   void send_clock_request(uint64_t now_us);
   bool read_replies(int timeout_ms);
+  void take_status(const uint8_t *p, size_t len);
   bool sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop);
   double event_ticks(double score_s) const;  // unwrapped board ticks of a song time
   double score_now(uint64_t now_us) const;   // the song time now on the board (may be before 0)
@@ -166,6 +178,7 @@ class Player {
   uint64_t clock_sent_us_[256] = {};
   uint8_t clock_seq_ = 0;
   uint64_t last_clock_us_ = 0;  // when the last clock request went out, plus its dither
+  uint64_t last_status_us_ = 0; // when the last status request went out
   double dither_ = 0;           // fraction of a USB frame added to the next request's time
   double line_free_us_ = 0;  // host time (us) the line to the board has carried what was written
   bool board_lost_ = false, board_restarted_ = false;

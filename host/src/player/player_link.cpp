@@ -102,6 +102,8 @@ bool Player::read_replies(int timeout_ms) {
       stats_.ppm = sync_.ppm();
       stats_.residual_us = sync_.residual_us();
       follow_rate();
+    } else if (p[0] == sc::kMsgStatus) {
+      take_status(p, len);
     } else if (p[0] == sc::kMsgError && len >= 4) {
       stats_.last_error = p[1];
       if (p[1] == sc::kErrLate)
@@ -113,6 +115,24 @@ bool Player::read_replies(int timeout_ms) {
     }
   }
   return true;
+}
+
+// Called from: read_replies. A status reply into the stats (a malformed one is left out: the
+// board's counters say so at the end).
+void Player::take_status(const uint8_t *p, size_t len) {
+  Status st;
+  try {
+    st = parse_status(p, len);
+  } catch (const std::exception &) {
+    return;
+  }
+  for (size_t m = 0; m < st.motors.size() && m < sc::kMaxMotors; ++m) {
+    stats_.motor_position[m] = st.motors[m].position_steps;
+    stats_.motor_reversals[m] = st.motors[m].reversals;
+    stats_.motor_flags[m] = st.motors[m].flags;
+  }
+  stats_.board_reversals = st.head.reversals;
+  stats_.has_status = true;
 }
 
 // Called from: run and reconnect. Clock round trips every kSyncEveryUs for `seconds` (at
