@@ -432,9 +432,11 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       midi_in.reset();  // no more callbacks
       session->stop();  // the keyboard's motors silent, then stop-all
       if (!timelines.empty())
-        std::printf("jam: MIDI clock: %llu ticks, %llu of them lost on the way and put back by their time\n",
+        std::printf("jam: MIDI clock: %llu ticks, %llu of them lost on the way and put back by their time, "
+                    "%llu delivered twice and taken once\n",
                     static_cast<unsigned long long>(timelines[0]->follower().ticks()),
-                    static_cast<unsigned long long>(timelines[0]->follower().lost_ticks()));
+                    static_cast<unsigned long long>(timelines[0]->follower().lost_ticks()),
+                    static_cast<unsigned long long>(timelines[0]->follower().twin_ticks()));
       std::printf("jam: %llu MIDI events, latency p50 %llu us, p99 %llu us\n",
                   static_cast<unsigned long long>(session->events()),
                   static_cast<unsigned long long>(session->latency().percentile(0.5)),

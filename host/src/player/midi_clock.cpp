@@ -12,32 +12,43 @@ void ClockFollower::take(const ClockMessage &m) {
       const double us = static_cast<double>(m.t_us);
       if (count_ >= 2 && slope_ > 0) {
         const double gap = (us - last_us_) / slope_;  // in the grid's tick periods
-        if (pending_lost_ > 0) {  // the last tick came after a long gap: on time, or late?
-          if (gap < 0.5) {  // late, with this one: out of the fit
-            --next_;
-            --count_;
-          } else if (std::fabs(gap - 1) < kLostSlack && lost_fits_better(us)) {  // on time: ticks lost
-            ring_[(next_ - 1) % kWindow].n += pending_lost_;
-            ticks_ += pending_lost_;
-            lost_ += static_cast<uint64_t>(pending_lost_);
-          }  // else both late by less each time, or the clock slowed down (note_change sees that)
+        // Within kTwinUs of the one before and, counted, half a period or more ahead of the
+        // line: the same tick again (JACK hands a client that missed its cycle the cycle's
+        // events twice), not a new one.
+        if (gap < 0.5 && us - last_us_ < kTwinUs && pending_lost_ == 0 &&
+            us < intercept_ + slope_ * (static_cast<double>(ticks_) - 0.5)) {
+          ++twins_;
+          break;
+        }
+        if (pending_lost_ > 0) {  // the held tick came after a long gap: on time, or late?
+          if (gap >= 0.5) {       // (with this one, it was late: it stays out of the fit)
+            if (std::fabs(gap - 1) < kLostSlack && lost_fits_better(us)) {  // on time: ticks lost
+              held_.n += pending_lost_;
+              ticks_ += pending_lost_;
+              lost_ += static_cast<uint64_t>(pending_lost_);
+            }  // else both late by less each time, or the clock slowed down (note_change sees that)
+            join(held_);
+          }
           pending_lost_ = 0;
         }
         last_us_ = us;
-        if (gap < 0.5) {  // held up and delivered with the one before: counted, not fitted
+        // Right after the one before and not early (early: a tempo over twice as fast, for the
+        // fit to follow): held up and delivered with it, counted, not fitted.
+        if (gap < 0.5 && us > intercept_ + slope_ * static_cast<double>(ticks_) - kChangeUs) {
           ++ticks_;
           break;
         }
         const int64_t whole = std::llround(gap);
-        if (whole >= 2 && whole <= kMaxLostRun) pending_lost_ = whole - 1;
+        if (whole >= 2 && whole <= kMaxLostRun) {  // out of the fit until the next tick tells why
+          pending_lost_ = whole - 1;
+          held_ = {ticks_, us};
+          ++ticks_;
+          break;
+        }
       }
       last_us_ = us;
-      note_change(us);
-      ring_[next_ % kWindow] = {ticks_, us};
-      ++next_;
+      join({ticks_, us});
       ++ticks_;
-      count_ = std::min(count_ + 1, kWindow);
-      fit();
       break;
     }
     case kMidiClockStart:  // the next tick is beat 0
@@ -63,12 +74,21 @@ void ClockFollower::take(const ClockMessage &m) {
   }
 }
 
-// Called from: take, for the tick after one that came after a long gap (us: when it came). Are
-// the two on the line with pending_lost_ ticks lost before them (both on time), closer than
-// without (both held up, the second less)? Squared distances from the line (the long-gap tick is
-// one of up to kWindow ticks in it).
+// Called from: take, for a tick that joins the fit (its number and when it came).
+void ClockFollower::join(const Tick &tick) {
+  note_change(tick);
+  ring_[next_ % kWindow] = tick;
+  ++next_;
+  count_ = std::min(count_ + 1, kWindow);
+  fit();
+}
+
+// Called from: take, for the tick after held_, the one that came after a long gap (us: when it
+// came). Are the two on the line with pending_lost_ ticks lost before them (both on time), closer
+// than without (both held up, the second less)? Squared distances from the line through the
+// ticks before them.
 bool ClockFollower::lost_fits_better(double us) const {
-  const Tick &last = ring_[(next_ - 1) % kWindow];
+  const Tick &last = held_;
   const double n = static_cast<double>(last.n), lost = static_cast<double>(pending_lost_);
   const auto sq = [](double x) { return x * x; };
   const double held = sq(last.us - (intercept_ + slope_ * n)) + sq(us - (intercept_ + slope_ * (n + 1)));
@@ -77,19 +97,19 @@ bool ClockFollower::lost_fits_better(double us) const {
   return gone < held;
 }
 
-// Called from: take, for a tick about to join the fit (us: when it came). A tick more than
+// Called from: join, for a tick about to join the fit. A tick more than
 // kChangeUs off the line, after another off it the same way but less far, is a tempo change
 // (the clock's jitter, a millisecond or two, never goes that far twice in a row; ticks a stalled
 // path held up come back towards the line): the fit forgets the ticks
 // before the change and keeps the last one on the old line, at its time on that line (a
 // fraction of the jitter off), where the new tempo turns, so the new tempo takes over within a
 // few ticks rather than a beat.
-void ClockFollower::note_change(double us) {
+void ClockFollower::note_change(const Tick &tick) {
   if (count_ < kChangeMinTicks) {
     change_run_ = 0;
     return;
   }
-  const double residual = us - (intercept_ + slope_ * static_cast<double>(ticks_));
+  const double residual = tick.us - (intercept_ + slope_ * static_cast<double>(tick.n));
   const int sign = residual > 0 ? 1 : -1;
   // A new tempo's ticks go further off the line each time; ticks held up by a stalled path
   // come back to it.
@@ -102,18 +122,18 @@ void ClockFollower::note_change(double us) {
   }
   change_sign_ = sign;
   if (++change_run_ < 2) return;
-  count_ = hinge_back(us) + 1;  // the anchor and the ticks after it
+  count_ = hinge_back(tick) + 1;  // the anchor and the ticks after it
   Tick &anchor = ring_[(next_ - count_) % kWindow];
   anchor.us = intercept_ + slope_ * static_cast<double>(anchor.n);
   change_run_ = 0;
 }
 
-// Called from: note_change, at a tempo change (us: the tick coming now). The change began at a
+// Called from: note_change, at a tempo change (tick: the one joining the fit now). The change began at a
 // tick the old line still holds, a few ticks before it was seen (a small change grows past
 // kChangeUs slowly, and jitter hides its first tick): of the last kHingeTicks ticks, the one
 // after which this tick and those before it best follow one new tempo from the old line (least
 // squares of the two parts). Returns its place back from the newest tick in the ring (0: it).
-size_t ClockFollower::hinge_back(double us) const {
+size_t ClockFollower::hinge_back(const Tick &tick) const {
   const size_t m = std::min(count_, kHingeTicks);
   std::array<double, kHingeTicks + 1> n{}, t{};  // the last m ticks, oldest first, then this one
   for (size_t i = 0; i < m; ++i) {
@@ -121,8 +141,8 @@ size_t ClockFollower::hinge_back(double us) const {
     n[i] = static_cast<double>(k.n);
     t[i] = k.us;
   }
-  n[m] = static_cast<double>(ticks_);
-  t[m] = us;
+  n[m] = static_cast<double>(tick.n);
+  t[m] = tick.us;
   double best_rss = 0;
   size_t best = m - 1;
   for (size_t j = 0; j < m; ++j) {  // tick j the last on the old line

@@ -38,6 +38,7 @@ class ClockFollower {
   static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
   static constexpr size_t kChangeMinTicks = 12;  // ticks on a line before a change to it is looked for
   static constexpr size_t kHingeTicks = 8;       // a change began at most this many ticks before it was seen
+  static constexpr double kTwinUs = 3000;        // a tick again within this (us) may be the same one twice
 
   // Takes one message (kMidiClock*), in arrival order.
   void take(const ClockMessage &m);
@@ -55,25 +56,31 @@ class ClockFollower {
   // comes a period after it and the two lie closer to the line counted so than as the next
   // ticks (held up, less each time); when the next comes right after it, it was late (a stalled
   // path delivers its ticks together), and late ticks are counted but kept out of the fit; when
-  // the next comes later than a period, the clock slowed down.
+  // the next comes later than a period, the clock slowed down. Until the next tick tells which, a
+  // tick after a long gap stays out of the fit (a tick 100 ms late would move the line by ms).
   uint64_t ticks() const { return static_cast<uint64_t>(ticks_); }
   uint64_t lost_ticks() const { return lost_; }
+  // Ticks that came twice, the second time right behind the first, and were taken once.
+  uint64_t twin_ticks() const { return twins_; }
 
  private:
-  void fit();
-  void note_change(double us);
-  size_t hinge_back(double us) const;
-  bool lost_fits_better(double us) const;
   struct Tick {
     int64_t n = 0;   // its number on the grid
     double us = 0;   // when it came (the first after a tempo change: its time on the old line)
   };
+  void join(const Tick &tick);
+  void fit();
+  void note_change(const Tick &tick);
+  size_t hinge_back(const Tick &tick) const;
+  bool lost_fits_better(double us) const;
   std::array<Tick, kWindow> ring_{};  // the last ticks, oldest at ring_[next_ % kWindow] once full
   size_t next_ = 0;          // ticks put in the ring so far
   int64_t ticks_ = 0;        // the grid's ticks since the first (taken and lost)
   uint64_t lost_ = 0;
+  uint64_t twins_ = 0;
   double last_us_ = 0;       // when the last tick came
-  int64_t pending_lost_ = 0; // ticks the last tick's long gap stands for, if the next comes a period on
+  int64_t pending_lost_ = 0; // ticks held_'s long gap stands for, if the next comes a period on
+  Tick held_;                // the tick after a long gap, out of the fit until the next tells why
   size_t count_ = 0;         // ticks in the ring
   size_t change_run_ = 0;    // ticks in a row more than kChangeUs off the line, one way
   int change_sign_ = 0;      // that way: +1 late, -1 early
