@@ -1,6 +1,6 @@
 // channel.h: motor m's timer compare channel (Chan<m>) and busy bit, per chip family
 // (channels_m328p.h, channels_m2560.h). Included by the step path's one translation unit
-// (scheduler.cpp), which arms the channels and holds their ISRs. AVR only.
+// (scheduler.cpp), which holds their ISRs, and by arm.h, which arms them. AVR only.
 //
 // Timer1 (and the Mega's Timer3) counts CPU cycles (16 bits, a wrap every 4.1 ms); the Uno's
 // Timer2 counts cycles / 8 (8 bits, a wrap every 128 us). Every 16-bit register access runs
