@@ -191,6 +191,23 @@ TEST_CASE("midi clock: a lost tick does not shift the grid", "[clock]") {
   CHECK(f.host_us_at(2.0) == Approx(t).margin(1));  // tick 48 is beat 2
 }
 
+TEST_CASE("midi clock: a tick lost just before Start leaves beat 0 on the tick after Start", "[clock]") {
+  // Tick 46 lost: tick 47 comes two periods after 45, Start, then tick 48, a period on, tells
+  // that 47 was on time. Beat 0 is tick 48 (counted from the ticks before Start, it was 47).
+  ClockFollower f;
+  double t = 1e9;
+  const double tick = 22727;  // 110 bpm
+  for (int i = 0; i < 48; ++i, t += tick) {
+    if (i != 46) f.take({kMidiClockTick, 0, uint64_t(t)});
+    if (i == 47) f.take({kMidiClockStart, 0, uint64_t(t + 12000)});
+  }
+  for (int i = 48; i < 96; ++i, t += tick) f.take({kMidiClockTick, 0, uint64_t(t)});
+  CHECK(f.lost_ticks() == 1u);
+  CHECK(f.ticks() == 96u);
+  CHECK(f.host_us_at(0) == Approx(1e9 + 48 * tick).margin(1));
+  CHECK(f.host_us_at(2.0) == Approx(t).margin(1));  // tick 96 is beat 2
+}
+
 TEST_CASE("midi clock: two ticks held up, less each time, are neither lost ones nor a new tempo", "[clock]") {
   // A stalled path: tick 60 comes 12 ms late (1.6 periods after tick 59), tick 61 8 ms late
   // (0.8 periods after 60), then the clock is back on time. Counted as lost, the grid would
@@ -238,6 +255,7 @@ void replay_capture(const std::string &name, double change_beat) {
   ClockFollower f;
   std::string line;
   int64_t prev_truth = -3, last_truth = -1, start_tick = -1;
+  bool after_start = false;
   size_t taken = 0, twice = 0, checked = 0, miscounted = 0, judged = 0;
   double worst_us = 0, sum_us = 0;
   constexpr int64_t kAhead = 8;
@@ -249,10 +267,11 @@ void replay_capture(const std::string &name, double change_beat) {
     double t_us = 0, grid_us = 0;
     int64_t truth = -1;
     REQUIRE((row >> status >> t_us >> truth >> grid_us));
-    if (status == kMidiClockStart) start_tick = int64_t(f.ticks());
+    if (status == kMidiClockStart) after_start = true;
     f.take({uint8_t(status), 0, uint64_t(std::llround(t0_us + t_us))});
     if (status != kMidiClockTick) continue;
     ++taken;
+    if (after_start) start_tick = truth, after_start = false;  // beat 0, by the sender's log
     if (truth == -2) ++twice;
     const auto beat_of = [&](int64_t tick) { return double(tick - start_tick) / ClockFollower::kTicksPerBeat; };
     if (start_tick >= 0) {  // the line now, five ticks ahead
@@ -295,6 +314,10 @@ TEST_CASE("midi clock: through JACK in an xrun storm, every tick is counted and 
 
 TEST_CASE("midi clock: a tick JACK delivers twice is taken once", "[clock]") {
   replay_capture("jack-twin-tick", 24);  // half a minute: 4 ticks lost, one delivered twice
+}
+
+TEST_CASE("midi clock: through JACK, a tick lost just before Start leaves the grid on its beat", "[clock]") {
+  replay_capture("jack-lost-before-start", 96);  // two minutes: 12 ticks lost, one twice
 }
 
 TEST_CASE("midi clock: a tick right behind itself is taken once, a tempo twice as fast followed", "[clock]") {

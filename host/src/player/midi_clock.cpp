@@ -26,10 +26,12 @@ void ClockFollower::take(const ClockMessage &m) {
               held_.n += pending_lost_;
               ticks_ += pending_lost_;
               lost_ += static_cast<uint64_t>(pending_lost_);
+              if (started_while_held_) zero_tick_ += pending_lost_;  // they came before Start
             }  // else both late by less each time, or the clock slowed down (note_change sees that)
             join(held_);
           }
           pending_lost_ = 0;
+          started_while_held_ = false;
         }
         last_us_ = us;
         // Right after the one before and not early (early: a tempo over twice as fast, for the
@@ -52,12 +54,14 @@ void ClockFollower::take(const ClockMessage &m) {
       break;
     }
     case kMidiClockStart:  // the next tick is beat 0
+      started_while_held_ = pending_lost_ > 0;
       zero_tick_ = ticks_;
       start_beat_ = 0;
       running_ = true;
       ++starts_;
       break;
     case kMidiClockContinue:  // the next tick is the song position's
+      started_while_held_ = pending_lost_ > 0;
       start_beat_ = position_ / 4.0;
       zero_tick_ = ticks_ - static_cast<int64_t>(position_) * (kTicksPerBeat / 4);
       running_ = true;

@@ -81,6 +81,7 @@ class ClockFollower {
   double last_us_ = 0;       // when the last tick came
   int64_t pending_lost_ = 0; // ticks held_'s long gap stands for, if the next comes a period on
   Tick held_;                // the tick after a long gap, out of the fit until the next tells why
+  bool started_while_held_ = false;  // Start or Continue came after held_: ticks found lost moved zero_tick_
   size_t count_ = 0;         // ticks in the ring
   size_t change_run_ = 0;    // ticks in a row more than kChangeUs off the line, one way
   int change_sign_ = 0;      // that way: +1 late, -1 early
