@@ -398,8 +398,8 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   keys->send(stepchoir::control_change(0, stepchoir::kCcSustain, 127));
   const double on60_s = keys->send(stepchoir::note_on(0, 60, kSoft));  // down, and pedalled, when unplugged
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  keys.reset();  // unplugged
   const double gone_s = Sender::now_s();
+  keys.reset();  // unplugged: its port closes at once, its client a little later
   REQUIRE(wait_for_line(live, "is gone"));
   const double noticed_s = Sender::now_s();
   keys = std::make_unique<Sender>();  // plugged in again

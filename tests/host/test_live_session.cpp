@@ -67,6 +67,19 @@ TEST_CASE("live: notes reach the link as set-period frames, and stop silences an
   CHECK(s.board_stats(0).frames_sent.load() == frames.size());
 }
 
+TEST_CASE("live: the stats keep the latest note's callback stamp and when its write returned", "[live]") {
+  FakeLink link;
+  LiveSession s({{&link, 2, kF}}, pool_config({{&link, 2, kF}}, Policy::kPoly), kNoRefresh);
+  s.start();
+  const BoardStats &st = s.board_stats(0);
+  CHECK(st.last_event_us.load() == 0);
+  const uint64_t stamp = monotonic_us();
+  REQUIRE(s.midi_queue().try_enqueue(note_on(0, 69, kSoft, stamp)));
+  REQUIRE(eventually([&] { return st.last_event_us.load() == stamp && st.last_written_us.load() >= stamp; }));
+  CHECK(st.last_written_us.load() <= monotonic_us());
+  s.stop();
+}
+
 TEST_CASE("live: jam - song frames from another thread go out whole and in order, live notes on their motors",
           "[live]") {
   FakeLink link;

@@ -19,6 +19,7 @@
 
 #include "board/child_process.h"
 #include "core/midi_event.h"
+#include "live/jack_period.h"
 
 // A private JACK server with the dummy driver, no realtime; JACK clients of this process and
 // its children find it through JACK_DEFAULT_SERVER.
@@ -50,6 +51,18 @@ class Sender {
  public:
   static constexpr const char *kPort = "e2e-keys";
   Sender() : out_(RtMidi::UNIX_JACK, "stepchoir e2e sender") { out_.openVirtualPort(kPort); }
+  // Closes the port (the keyboard is gone from here on), then waits out the JACK cycle in
+  // flight before the RtMidiOut goes. RtMidi 5.0's JACK output frees its ring buffer before it
+  // closes its client, and a cycle that began before the port closed still reads that buffer
+  // (SIGSEGV in jack_ringbuffer_peek on the client's process thread); a cycle that begins after
+  // returns at once.
+  ~Sender() {
+    out_.closePort();
+    std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int64_t>(2 * stepchoir::jack_period_us())) +
+                                kCycleDrain);
+  }
+  Sender(const Sender &) = delete;
+  Sender &operator=(const Sender &) = delete;
   // Sends one channel message; returns when it was sent (s on the steady clock).
   double send(const stepchoir::MidiEvent &e) {
     const unsigned char m[3] = {e.status, e.data1, e.data2};
@@ -87,6 +100,8 @@ class Sender {
   }
 
  private:
+  // Beyond two periods, for a process thread the machine held up (without realtime scheduling).
+  static constexpr std::chrono::milliseconds kCycleDrain{50};
   RtMidiOut out_;
 };
 

@@ -53,7 +53,7 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
                      "sleep,1,2000250,1,,\n"
                      "reset,1,2000260,0,,\n"
                      "frame,0,2000300,0,,\n"
-                     "frame,0,2000400,0,,\n"
+                     "frame,0,2000400,0,,70\n"
                      "# a free comment\n"
                      "# end cycle=160000000\n"
                      "# summary motor=0 steps=2 reversals=0\n"
@@ -95,6 +95,7 @@ TEST_CASE("reads header - every event kind - end and summary lines", "[trace]") 
   CHECK(t.motor[1].resets[0].cycle == 2000260u);
   CHECK(t.motor[0].sleeps.empty());
   CHECK(t.frame_ends == std::vector<uint64_t>{2000300u, 2000400u});
+  CHECK(t.frame_starts == std::vector<uint64_t>{2000300u, 2000330u});
   CHECK(t.has_end);
   CHECK(t.end_cycle == 160000000u);
   REQUIRE(t.summary_lines.size() == 2);

@@ -1,5 +1,6 @@
 // live_bench.cpp: latency of the live path, RtMidi callback -> frame handed to the OS, over a
-// real JACK MIDI connection into the real firmware on the virtual board; plus wire time.
+// real JACK MIDI connection into the real firmware on the virtual board; plus wire time, and
+// key -> first STEP edge of single notes part by part (live_parts.h).
 #include <CLI/CLI.hpp>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -17,8 +18,10 @@
 #include "score.h"
 #include "trace.h"
 #include "jack_rig.h"
+#include "live/jack_period.h"
 #include "live/midi_in.h"
 #include "live/session.h"
+#include "live_parts.h"
 #include "vboard_process.h"
 
 using namespace stepchoir;
@@ -42,6 +45,9 @@ double peak_rss_mib() {
 // Wire time of a payload's frame at the protocol's baud rate, 10 bits a byte (8N1), in us.
 double wire_us(uint8_t payload_bytes) { return sc::frame_wire_size(payload_bytes) * 10.0 * 1e6 / sc::kBaud; }
 
+// How far a single note's parts may add up away from its total, us (rounding of the stamps).
+constexpr double kPartsSumToleranceUs = 5;
+
 }  // namespace
 
 // Plays N note-on/off events at a fixed rate through JACK into `stepchoir`'s live session
@@ -57,7 +63,7 @@ int main(int argc, char **argv) {
   app.add_option("--out", out_dir, "directory for the results (default bench/results)");
   app.add_option("--name", name, "results file name without .md (default live-latency)");
   app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames at 48 kHz (default 32)")
-      ->check(CLI::Range(16, 4096));
+      ->check(CLI::Range(8, 4096));
   app.add_flag("--jack-realtime", jack_realtime, "run jackd with realtime scheduling (-R)");
   app.add_option("--board", board_name, "virtual board: uno or mega")->check(CLI::IsMember({"uno", "mega"}));
   std::string link_model = "ideal";
@@ -73,13 +79,16 @@ int main(int argc, char **argv) {
   JackServer jack(jack_period, jack_realtime);
   Sender keys;
   const std::string trace_file = "/tmp/stepchoir-bench-live-" + std::to_string(::getpid()) + ".csv";
-  VboardProcess vb({"--board", board_name, "--quiet", "--no-measure", "--link-model", link_model, "--trace", trace_file});
+  VboardProcess vb({"--board", board_name, "--quiet", "--no-measure", "--link-model", link_model, "--trace", trace_file,
+                    "--trace-frames"});
   Board board(open_link(vb.pty()));
   const Caps caps = board.hello();
   const std::vector<LiveBoard> pool{{&board.link(), caps.motor_count, caps.f_cpu_hz}};
   LiveSession session(pool, pool_config(pool, Policy::kPoly));
   MidiIn midi(stepchoir::MidiApi::kJack, Sender::kPort, session.midi_queue());
   session.start();
+  const double period_us = jack_period_us();  // what the server runs at
+  const BoardStats &stats = session.board_stats(0);
 
   // Struck below the default double_at (live/velocity.h), so each note takes one motor.
   constexpr uint8_t kVelocity = 64;
@@ -100,20 +109,22 @@ int main(int argc, char **argv) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cpu_s = cpu_seconds() - cpu0;
   // Key -> first STEP edge: single notes 50 ms apart, each released after 20 ms, so that each
-  // starts a silent motor; the send times against the trace's edges on the monotonic clock.
+  // starts a silent motor; the send times and the host's stamps of each note against the
+  // trace's frames and edges on the monotonic clock.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  std::vector<uint64_t> key_us;
+  std::vector<live_parts::NoteStamps> notes;
   for (int i = 0; i < onsets; ++i) {
     const uint8_t note = static_cast<uint8_t>(60 + i % 12);
-    key_us.push_back(monotonic_us());
+    const uint64_t key = monotonic_us();
     keys.send(note_on(0, note, kVelocity));
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const uint64_t callback = stats.last_event_us.load(), written = stats.last_written_us.load();
+    notes.push_back(callback >= key ? live_parts::NoteStamps{key, callback, written} : live_parts::NoteStamps{key, 0, 0});
     keys.send(note_off(0, note));
     std::this_thread::sleep_for(std::chrono::milliseconds(30));
   }
   // What the board says once everything was released: a status request goes out each second.
   std::this_thread::sleep_for(std::chrono::milliseconds(2 * kStatusEveryMs + 200));
-  const BoardStats &stats = session.board_stats(0);
   const unsigned sounding = stats.sounding_mask.load(), frames_bad = stats.status_frames_bad.load(),
                  overruns = stats.status_overruns.load();
   unsigned held = 0;  // motors the host itself still plays: a note-off lost before the callback
@@ -121,26 +132,12 @@ int main(int argc, char **argv) {
     if (session.motor_note(m) >= 0) held |= 1u << m;
   session.stop();
   vb.stop();
-  // Each key's first STEP edge: the first edge after a silence of 15 ms or more on any motor,
-  // after the key, within 20 ms.
   const sc::trace::Trace trace = sc::trace::read_trace(trace_file);
   ::unlink(trace_file.c_str());
   const long slipped_us = sc::trace::pacing_slipped_us(trace);
-  std::vector<double> starts_s;  // monotonic clock, s
-  for (const auto &m : trace.motor)
-    for (size_t i = 0; i < m.steps.size(); ++i)
-      if (i == 0 || trace.real_seconds(m.steps[i].rise_cycle) - trace.real_seconds(m.steps[i - 1].rise_cycle) > 0.015)
-        starts_s.push_back(trace.wall_seconds(trace.real_seconds(m.steps[i].rise_cycle)));
-  std::sort(starts_s.begin(), starts_s.end());
-  std::vector<double> key_to_step_us;
-  for (uint64_t k : key_us) {
-    const auto it = std::lower_bound(starts_s.begin(), starts_s.end(), k / 1e6);
-    if (it != starts_s.end() && *it - k / 1e6 < 0.020) key_to_step_us.push_back((*it - k / 1e6) * 1e6);
-  }
-  std::sort(key_to_step_us.begin(), key_to_step_us.end());
-  auto pct = [&](double q) {
-    return key_to_step_us.empty() ? 0.0 : key_to_step_us[static_cast<size_t>(q * (key_to_step_us.size() - 1))];
-  };
+  const live_parts::Split split = live_parts::split_notes(trace, notes);
+  const std::vector<double> &key_to_step_us = split.totals_us;
+  auto pct = [&](double q) { return live_parts::percentile(key_to_step_us, q); };
 
   const LatencyHistogram &h = session.latency();
   const uint64_t p50 = h.percentile(0.5), p99 = h.percentile(0.99), max = h.max_us();
@@ -154,7 +151,8 @@ int main(int argc, char **argv) {
   out << "# Live path: " << events << " events at " << rate_hz << " per second\n\n"
       << "Command: `" << command << "`\n\n"
       << "Date: " << date << "\n\n"
-      << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -p " << jack_period << "`), a sender on a virtual JACK MIDI "
+      << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -p " << jack_period
+      << "`; its period as the server reports it: " << period_us << " us), a sender on a virtual JACK MIDI "
          "output, `stepchoir`'s MidiIn (RtMidi, JACK API) on it, a LiveSession (engine and writer threads) and the real "
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
@@ -192,20 +190,28 @@ int main(int argc, char **argv) {
       << "| peak memory of this process (resident) | " << peak_rss_mib() << " MiB |\n\n"
       << "Key -> first STEP edge: " << onsets << " single notes 50 ms apart after the flood, from the sender's "
          "clock just before it hands the note to JACK to the board's first STEP edge, the trace laid on the same "
-         "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames at 48 kHz, "
-      << jack_period / 48.0 << " ms at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
+         "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames, "
+      << period_us << " us at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
          "none; 16u2: the next 1 ms USB frame), the wire (above) and the firmware (frame's last byte -> first STEP "
-         "edge, measured in bench/results/onset-latency.md). A note-on on a DIN MIDI cable takes 960 us (3 bytes at "
+         "edge, measured in bench/results/onset-latency.md), each measured per note in the table below. A note-on on a DIN MIDI cable takes 960 us (3 bytes at "
          "31,250 baud).\n\n"
       << "Events that never reached the callback were lost inside JACK (its xruns on a loaded "
          "machine), before the live path.\n\n"
       << "Machine: 2 shared cores, other engineers' builds and virtual boards running; JACK "
-      << (jack_realtime ? "with" : "without") << " realtime scheduling.\n";
+      << (jack_realtime ? "with" : "without") << " realtime scheduling.\n\n"
+      << live_parts::parts_table(split, static_cast<size_t>(onsets), period_us, link_model,
+                                 sc::frame_wire_size(sc::kSetPeriodBytes), sc::kBaud);
   out.close();
   std::printf("key -> first STEP p50 %.0f us, p99 %.0f us (%zu notes, %s link); ", pct(0.5), pct(0.99),
               key_to_step_us.size(), link_model.c_str());
   std::printf("p50 %llu us, p99 %llu us, max %llu us over %llu samples; wire %.0f us; written %s\n",
               static_cast<unsigned long long>(p50), static_cast<unsigned long long>(p99),
               static_cast<unsigned long long>(max), static_cast<unsigned long long>(h.count()), wire1, path.c_str());
+  // Each note's parts add up to its total: the five spans meet end to end on one clock.
+  if (split.worst_sum_error_us > kPartsSumToleranceUs) {
+    std::fprintf(stderr, "a note's parts differ from its total by %.1f us (more than %.0f)\n",
+                 split.worst_sum_error_us, kPartsSumToleranceUs);
+    return 2;
+  }
   return sounding == held ? 0 : 1;  // the board plays exactly what the host holds
 }

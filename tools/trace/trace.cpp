@@ -223,7 +223,11 @@ void Parser::parse_row(std::string_view line) {
     return cycle;
   };
   if (event == "frame") {
-    trace_.frame_ends.push_back(ordered_cycle(trace_.frame_ends.empty() ? 0 : trace_.frame_ends.back()));
+    const uint64_t end = ordered_cycle(trace_.frame_ends.empty() ? 0 : trace_.frame_ends.back());
+    const uint64_t span = field[kWidth].empty() ? 0 : parse_unsigned<uint64_t>(field[kWidth], "frame span");
+    if (span > end) fail("frame row's first byte comes before cycle 0");
+    trace_.frame_ends.push_back(end);
+    trace_.frame_starts.push_back(end - span);
     return;
   }
   if (event == "mcu_reset") {

@@ -10,8 +10,9 @@
 //   enable,0,5,0,,                ENABLE pin change (level)
 //   sleep,0,900,0,,               the driver's SLEEP input (level; 0 = asleep), where wired
 //   reset,0,950,0,,               the driver's RESET input (level; 0 = in reset), where wired
-//   frame,0,2000300,0,,           a host frame's last byte (its delimiter) reached the UART
-//                                 (with stepchoir-vboard --trace-frames; motor and value unused)
+//   frame,0,2000300,0,,80         a host frame's last byte (its delimiter) reached the UART,
+//                                 its first byte 80 cycles before (with stepchoir-vboard
+//                                 --trace-frames; motor and value unused; width may be empty)
 //   reply,0,2000900,0,12,         the USB bridge passed 12 of the board's bytes to the host
 //                                 (with --trace-frames)
 //   mcu_reset,0,1500000,0,,       the host's open of the port reset the MCU (DTR)
@@ -74,6 +75,7 @@ struct Trace {
   bool has_end = false;          // true when the "# end" line was present
   std::vector<MotorTrace> motor;          // motors entries
   std::vector<uint64_t> frame_ends;       // cycles of "frame" rows, in order (--trace-frames)
+  std::vector<uint64_t> frame_starts;     // cycles of their first bytes (the delimiter's where width is empty)
   struct Reply {
     uint64_t cycle;  // when the bridge passed them to the host
     uint64_t bytes;

@@ -43,11 +43,16 @@ bool make_realtime(int priority) noexcept {
 }
 
 // Called from: the owner, right after a set-period frame went out. Each entry's MIDI event ->
-// write() latency; refreshes (event time 0) are no MIDI event's.
-void record_latency(LatencyHistogram &latency, const uint64_t *event_us, size_t n) noexcept {
+// write() latency, and the latest such entry's two ends in the stats; refreshes (event time 0)
+// are no MIDI event's.
+void record_latency(LatencyHistogram &latency, BoardStats &stats, const uint64_t *event_us, size_t n) noexcept {
   const uint64_t now = monotonic_us();
-  for (size_t i = 0; i < n; ++i)
-    if (event_us[i] != 0) latency.record(now > event_us[i] ? now - event_us[i] : 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (event_us[i] == 0) continue;
+    latency.record(now > event_us[i] ? now - event_us[i] : 0);
+    stats.last_event_us.store(event_us[i], std::memory_order_relaxed);
+    stats.last_written_us.store(now, std::memory_order_relaxed);
+  }
 }
 
 }  // namespace
@@ -171,7 +176,7 @@ bool BoardLink::try_send_now(const MotorUpdate &u) {
       sc::put_entry(payload, e[0].motor, e[0].period_q8);
       const uint8_t len = sc::encode_frame(payload, sizeof payload, wire);
       if (send_wire(*link_.load(std::memory_order_acquire), wire, len, true)) {
-        record_latency(latency_, event_us, 1);
+        record_latency(latency_, stats_, event_us, 1);
         coalescer_ = next;
         stats_.entries_sent.fetch_add(1, std::memory_order_relaxed);
         stats_.direct_frames.fetch_add(1, std::memory_order_relaxed);
@@ -198,7 +203,7 @@ void BoardLink::send_pending(Link &link) {
         sc::put_entry(&payload[i * sc::kSetPeriodBytes], entries[first + i].motor, entries[first + i].period_q8);
       if (!send_payload(link, payload, static_cast<uint8_t>(count * sc::kSetPeriodBytes))) continue;
       stats_.entries_sent.fetch_add(count, std::memory_order_relaxed);
-      record_latency(latency_, event_us + first, count);
+      record_latency(latency_, stats_, event_us + first, count);
     }
   }
   stats_.coalesced.store(coalescer_.coalesced(), std::memory_order_relaxed);

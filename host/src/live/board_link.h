@@ -74,6 +74,11 @@ struct BoardStats {
   std::array<std::atomic<uint16_t>, sc::kMaxMotors> motor_reversals{};
   std::atomic<uint16_t> reversals{0};
   std::atomic<uint32_t> reconnects{0};     // links attach() handed over after a failed one
+  // The latest entry a MIDI event caused, handed to the OS: the event's stamp (the MIDI
+  // callback's monotonic_us) and when the write() on the link returned (monotonic_us); 0 before
+  // the first. Stored one after the other by the link's owner: a pair read once the link has been
+  // quiet for a while belongs together (the live bench reads it after each of its single notes).
+  std::atomic<uint64_t> last_event_us{0}, last_written_us{0};
 };
 
 // One board of the pool: its link (owned by the caller, alive until the session stops) and

@@ -132,6 +132,8 @@ class AvrAdapter : public SwitchPinDriver {
   CpuProfiler *profiler_ = nullptr;
   LineNoise *noise_ = nullptr;
   TraceWriter *frame_trace_ = nullptr;
+  bool in_frame_ = false;            // host bytes reached UART0 since the last delimiter
+  uint64_t frame_first_cycle_ = 0;   // when the first of them did (the frame trace's span)
   int repeat_byte_ = -1;  // a duplicated host byte still to deliver, or -1
   avr_t *avr_ = nullptr;
   void *uart_ = nullptr;  // avr_uart_t of UART0

@@ -134,7 +134,9 @@ uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
     self->fix_uart_timing();
     avr_raise_irq(self->uart_input_irq_, byte);
     ++self->uart_in_bytes_;
-    if (byte == 0 && self->frame_trace_) self->frame_trace_->frame_end(avr->cycle);
+    if (!self->in_frame_) self->frame_first_cycle_ = avr->cycle;
+    self->in_frame_ = byte != 0;
+    if (byte == 0 && self->frame_trace_) self->frame_trace_->frame_end(avr->cycle, avr->cycle - self->frame_first_cycle_);
   } else if (deliver) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
   }

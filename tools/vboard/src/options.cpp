@@ -88,7 +88,7 @@ const char *usage_text() {
          "  --no-auto-reset     the host's open of the pty does not reset the board (default:\n"
          "                      it does, as DTR does on an Uno or Mega; --auto-reset says so)\n"
          "  --no-bootloader     no bootloader in flash: every reset starts the firmware at once\n"
-         "  --trace-frames      also trace when each host frame's last byte reaches the UART\n"
+         "  --trace-frames      also trace when each host frame's first and last byte reach the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --exit-with-parent  stop (as on SIGTERM) once the process that started it is gone\n"
          "  --quiet             no summary on stderr\n";

@@ -110,10 +110,11 @@ void TraceWriter::level_row(const char *name, unsigned motor, uint64_t cycle, bo
   end_row();
 }
 
-void TraceWriter::frame_end(uint64_t cycle) {
+void TraceWriter::frame_end(uint64_t cycle, uint64_t span_cycles) {
   if (!file_) return;
   row_prefix("frame", 0, cycle, false);
   put_char(',');
+  put_u64(span_cycles);
   end_row();
 }
 

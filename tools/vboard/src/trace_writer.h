@@ -46,8 +46,9 @@ class TraceWriter {
   void sleep(unsigned motor, uint64_t cycle, bool level);
   // reset,m,CYCLE,LEVEL,, : the driver's RESET input (low = in reset).
   void reset(unsigned motor, uint64_t cycle, bool level);
-  // frame,0,CYCLE,0,, : a host frame's delimiter reached the UART.
-  void frame_end(uint64_t cycle);
+  // frame,0,CYCLE,0,,SPAN : a host frame's delimiter reached the UART at CYCLE, its first byte
+  // SPAN cycles before.
+  void frame_end(uint64_t cycle, uint64_t span_cycles);
   // reply,0,CYCLE,0,BYTES, : the USB bridge passed BYTES of the board's to the host.
   void reply(uint64_t cycle, uint64_t bytes);
   // mcu_reset,0,CYCLE,0,, : the host's open reset the MCU (DTR).

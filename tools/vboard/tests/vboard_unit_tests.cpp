@@ -134,7 +134,7 @@ TEST_CASE("trace writer formats header and rows") {
     t.enable(3, 0, true);
     t.sleep(1, 11, false);
     t.reset(2, 11, true);
-    t.frame_end(12);
+    t.frame_end(12, 3);
     t.comment("end cycle=11");
     t.flush();
   }
@@ -148,7 +148,7 @@ TEST_CASE("trace writer formats header and rows") {
         "enable,3,0,1,,\n"
         "sleep,1,11,0,,\n"
         "reset,2,11,1,,\n"
-        "frame,0,12,0,,\n"
+        "frame,0,12,0,,3\n"
         "# end cycle=11\n");
   std::fclose(stream);
 }
