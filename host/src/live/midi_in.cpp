@@ -115,12 +115,11 @@ bool MidiIn::still_there() {
   return false;
 }
 
-MidiIn::~MidiIn() {
-  if (in_) {
-    in_->cancelCallback();
-    in_->closePort();
-  }
-}
+// RtMidi's input closes its port and then its JACK client or ALSA thread, which waits out a
+// callback in flight; the callback stays set meanwhile (cancelCallback first would let a JACK
+// cycle in flight read the callback after it was cleared, and call a null one), and every
+// member it touches is still alive here.
+MidiIn::~MidiIn() { in_.reset(); }
 
 bool parse_midi_message(const unsigned char *bytes, size_t len, uint64_t t_us, MidiEvent *out) noexcept {
   if (len < 1 || bytes[0] < 0x80 || bytes[0] >= 0xF0) return false;
