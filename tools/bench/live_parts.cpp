@@ -64,6 +64,7 @@ Split split_notes(const sc::trace::Trace &t, const std::vector<NoteStamps> &note
     p.wire = static_cast<double>(last - first) / t.real_f_cpu_hz() * 1e6;
     p.firmware = static_cast<double>(it->cycle - last) / t.real_f_cpu_hz() * 1e6;
     p.total = total;
+    p.after_midi = total - p.jack;
     out.worst_sum_error_us = std::max(out.worst_sum_error_us, std::fabs(p.sum() - p.total));
     out.parts.push_back(p);
   }
@@ -88,6 +89,8 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
        std::to_string(frame_bytes - 1) + " byte times after the first, " +
            std::to_string(static_cast<int>(std::lround(wire_us * (frame_bytes - 1) / frame_bytes))) + " us"},
       {"firmware", "last byte -> first STEP edge", &NoteParts::firmware, "bench/results/onset-latency.md"},
+      {"after MIDI in", "the MIDI callback's stamp -> first STEP edge", &NoteParts::after_midi,
+       "all but JACK: stepchoir, the link and the board"},
       {"total", "key -> first STEP edge", &NoteParts::total, ""},
   };
   std::ostringstream out;
