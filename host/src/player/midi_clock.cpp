@@ -15,23 +15,25 @@ void ClockFollower::take(const ClockMessage &m) {
         // Within kTwinUs of the one before and, counted, half a period or more ahead of the
         // line: the same tick again (JACK hands a client that missed its cycle the cycle's
         // events twice), not a new one.
-        if (gap < 0.5 && us - last_us_ < kTwinUs && pending_lost_ == 0 &&
+        if (gap < 0.5 && us - last_us_ < kTwinUs && held_count_ == 0 &&
             us < intercept_ + slope_ * (static_cast<double>(ticks_) - 0.5)) {
           ++twins_;
           break;
         }
-        if (pending_lost_ > 0) {  // the held tick came after a long gap: on time, or late?
-          if (gap >= 0.5) {       // (with this one, it was late: it stays out of the fit)
-            if (std::fabs(gap - 1) < kLostSlack && lost_fits_better(us)) {  // on time: ticks lost
-              held_.n += pending_lost_;
-              ticks_ += pending_lost_;
-              lost_ += static_cast<uint64_t>(pending_lost_);
-              if (started_while_held_) zero_tick_ += pending_lost_;  // they came before Start
-            }  // else both late by less each time, or the clock slowed down (note_change sees that)
-            join(held_);
+        if (held_count_ > 0) {  // ticks that came after long gaps: on time after lost ones, or late?
+          if (gap < 0.5) {      // the last came with this one: it was late, and stays out of the fit
+            --held_count_;
+            join_held(false);
+          } else if (std::fabs(gap - 1) < kLostSlack) {  // this one a period on: lost ones, if they fit so
+            join_held(lost_fits_better(us));
+          } else if (gap >= 1.5 && std::llround(gap) <= kMaxLostRun && held_count_ < kMaxHeld) {
+            held_[held_count_++] = {{ticks_, us}, std::llround(gap) - 1};  // another: the next tells
+            last_us_ = us;
+            ++ticks_;
+            break;
+          } else {  // late by less each time, or the clock slowed down (note_change sees that)
+            join_held(false);
           }
-          pending_lost_ = 0;
-          started_while_held_ = false;
         }
         last_us_ = us;
         // Right after the one before and not early (early: a tempo over twice as fast, for the
@@ -42,8 +44,7 @@ void ClockFollower::take(const ClockMessage &m) {
         }
         const int64_t whole = std::llround(gap);
         if (whole >= 2 && whole <= kMaxLostRun) {  // out of the fit until the next tick tells why
-          pending_lost_ = whole - 1;
-          held_ = {ticks_, us};
+          held_[held_count_++] = {{ticks_, us}, whole - 1};
           ++ticks_;
           break;
         }
@@ -54,14 +55,14 @@ void ClockFollower::take(const ClockMessage &m) {
       break;
     }
     case kMidiClockStart:  // the next tick is beat 0
-      started_while_held_ = pending_lost_ > 0;
+      held_before_start_ = held_count_;
       zero_tick_ = ticks_;
       start_beat_ = 0;
       running_ = true;
       ++starts_;
       break;
     case kMidiClockContinue:  // the next tick is the song position's
-      started_while_held_ = pending_lost_ > 0;
+      held_before_start_ = held_count_;
       start_beat_ = position_ / 4.0;
       zero_tick_ = ticks_ - static_cast<int64_t>(position_) * (kTicksPerBeat / 4);
       running_ = true;
@@ -87,17 +88,40 @@ void ClockFollower::join(const Tick &tick) {
   fit();
 }
 
-// Called from: take, for the tick after held_, the one that came after a long gap (us: when it
-// came). Are the two on the line with pending_lost_ ticks lost before them (both on time), closer
-// than without (both held up, the second less)? Squared distances from the line through the
+// Called from: take, once the tick after the held ones tells what they were. lost: each stands
+// for the ticks its gap left out (they were lost on the way), else each came as it is (late, or
+// a slower clock). Ticks found lost before a Start or Continue move its beat 0 with them.
+void ClockFollower::join_held(bool lost) {
+  int64_t shift = 0;
+  for (size_t i = 0; i < held_count_; ++i) {
+    if (lost) {
+      shift += held_[i].lost;
+      if (i < held_before_start_) zero_tick_ += held_[i].lost;
+    }
+    join({held_[i].tick.n + shift, held_[i].tick.us});
+  }
+  ticks_ += shift;
+  lost_ += static_cast<uint64_t>(shift);
+  held_count_ = 0;
+  held_before_start_ = 0;
+}
+
+// Called from: take, for the tick a period after the last held one (us: when it came). Are
+// they on the line with the ticks their gaps left out lost before each (all on time), closer than
+// without (held up, and this one the next tick)? Squared distances from the line through the
 // ticks before them.
 bool ClockFollower::lost_fits_better(double us) const {
-  const Tick &last = held_;
-  const double n = static_cast<double>(last.n), lost = static_cast<double>(pending_lost_);
   const auto sq = [](double x) { return x * x; };
-  const double held = sq(last.us - (intercept_ + slope_ * n)) + sq(us - (intercept_ + slope_ * (n + 1)));
-  const double gone =
-      sq(last.us - (intercept_ + slope_ * (n + lost))) + sq(us - (intercept_ + slope_ * (n + lost + 1)));
+  const auto line = [this](int64_t n) { return intercept_ + slope_ * static_cast<double>(n); };
+  double held = 0, gone = 0;
+  int64_t shift = 0;
+  for (size_t i = 0; i < held_count_; ++i) {
+    shift += held_[i].lost;
+    held += sq(held_[i].tick.us - line(held_[i].tick.n));
+    gone += sq(held_[i].tick.us - line(held_[i].tick.n + shift));
+  }
+  held += sq(us - line(ticks_));
+  gone += sq(us - line(ticks_ + shift));
   return gone < held;
 }
 

@@ -38,6 +38,7 @@ class ClockFollower {
   static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
   static constexpr size_t kChangeMinTicks = 12;  // ticks on a line before a change to it is looked for
   static constexpr size_t kHingeTicks = 8;       // a change began at most this many ticks before it was seen
+  static constexpr size_t kMaxHeld = 4;          // ticks after long gaps in a row held; more: a slower clock
   static constexpr double kTwinUs = 3000;        // a tick again within this (us) may be the same one twice
 
   // Takes one message (kMidiClock*), in arrival order.
@@ -56,8 +57,10 @@ class ClockFollower {
   // comes a period after it and the two lie closer to the line counted so than as the next
   // ticks (held up, less each time); when the next comes right after it, it was late (a stalled
   // path delivers its ticks together), and late ticks are counted but kept out of the fit; when
-  // the next comes later than a period, the clock slowed down. Until the next tick tells which, a
-  // tick after a long gap stays out of the fit (a tick 100 ms late would move the line by ms).
+  // the next comes later than a period, the clock slowed down. Until a tick tells which, a tick
+  // after a long gap stays out of the fit (a tick 100 ms late would move the line by ms), and so
+  // do up to kMaxHeld such in a row (lost ticks come in runs when JACK misses cycles); more in a
+  // row are a slower clock.
   uint64_t ticks() const { return static_cast<uint64_t>(ticks_); }
   uint64_t lost_ticks() const { return lost_; }
   // Ticks that came twice, the second time right behind the first, and were taken once.
@@ -69,6 +72,7 @@ class ClockFollower {
     double us = 0;   // when it came (the first after a tempo change: its time on the old line)
   };
   void join(const Tick &tick);
+  void join_held(bool lost);
   void fit();
   void note_change(const Tick &tick);
   size_t hinge_back(const Tick &tick) const;
@@ -79,9 +83,13 @@ class ClockFollower {
   uint64_t lost_ = 0;
   uint64_t twins_ = 0;
   double last_us_ = 0;       // when the last tick came
-  int64_t pending_lost_ = 0; // ticks held_'s long gap stands for, if the next comes a period on
-  Tick held_;                // the tick after a long gap, out of the fit until the next tells why
-  bool started_while_held_ = false;  // Start or Continue came after held_: ticks found lost moved zero_tick_
+  struct Held {
+    Tick tick;         // a tick that came after a long gap
+    int64_t lost = 0;  // the ticks its gap stands for, if they were lost
+  };
+  std::array<Held, kMaxHeld> held_{};  // out of the fit until a tick a period on tells what they were
+  size_t held_count_ = 0;
+  size_t held_before_start_ = 0;  // of them, those before the last Start or Continue
   size_t count_ = 0;         // ticks in the ring
   size_t change_run_ = 0;    // ticks in a row more than kChangeUs off the line, one way
   int change_sign_ = 0;      // that way: +1 late, -1 early
