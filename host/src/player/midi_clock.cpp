@@ -125,10 +125,11 @@ bool ClockFollower::lost_fits_better(double us) const {
   return gone < held;
 }
 
-// Called from: join, for a tick about to join the fit. A tick more than
-// kChangeUs off the line, after another off it the same way but less far, is a tempo change
+// Called from: join, for a tick about to join the fit. kChangeRun ticks in a row more than
+// kChangeUs off the line the same way, each further than the one before, are a tempo change
 // (the clock's jitter, a millisecond or two, never goes that far twice in a row; ticks a stalled
-// path held up come back towards the line): the fit forgets the ticks
+// path held up come back towards the line, after two at most in the captures of
+// tests/data/clock): the fit forgets the ticks
 // before the change and keeps the last one on the old line, at its time on that line (a
 // fraction of the jitter off), where the new tempo turns, so the new tempo takes over within a
 // few ticks rather than a beat.
@@ -149,7 +150,8 @@ void ClockFollower::note_change(const Tick &tick) {
     return;
   }
   change_sign_ = sign;
-  if (++change_run_ < 2) return;
+  if (++change_run_ < kChangeRun) return;
+  ++changes_;
   count_ = hinge_back(tick) + 1;  // the anchor and the ticks after it
   Tick &anchor = ring_[(next_ - count_) % kWindow];
   anchor.us = intercept_ + slope_ * static_cast<double>(anchor.n);

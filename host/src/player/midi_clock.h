@@ -6,7 +6,7 @@
 // line through the last kWindow ticks (least squares: a DAW's clock jitters by a millisecond or
 // so, and MIDI through JACK moves once a period; four beats of ticks put the line within a
 // tenth of that, a lead ahead), so a beat's host time is known ahead; a tempo change
-// (two ticks in a row far off the line) restarts the fit from the change, anchored at the old
+// (three ticks in a row far off the line) restarts the fit from the change, anchored at the old
 // line's last tick (a clock's ticks run on through a change), so the new tempo is followed
 // within a few ticks. Ticks count while the clock is stopped too (DAWs send them), so
 // the grid is known before Start: the tick after Start is beat 0, the tick after Continue the
@@ -35,7 +35,8 @@ class ClockFollower {
   static constexpr size_t kWindow = 96;  // ticks the line is fitted through: four beats
   static constexpr int64_t kMaxLostRun = 24;  // a longer silence is a clock that paused
   static constexpr double kLostSlack = 0.25;  // after lost ticks the next comes a period on, within this
-  static constexpr double kChangeUs = 3000;     // a tick this far off the line twice: a new tempo
+  static constexpr double kChangeUs = 3000;     // ticks this far off the line, kChangeRun in a row: a new tempo
+  static constexpr size_t kChangeRun = 3;       // (further each time: a path holding ticks up goes back)
   static constexpr size_t kChangeMinTicks = 12;  // ticks on a line before a change to it is looked for
   static constexpr size_t kHingeTicks = 8;       // a change began at most this many ticks before it was seen
   static constexpr size_t kMaxHeld = 4;          // ticks after long gaps in a row held; more: a slower clock
@@ -65,6 +66,8 @@ class ClockFollower {
   uint64_t lost_ticks() const { return lost_; }
   // Ticks that came twice, the second time right behind the first, and were taken once.
   uint64_t twin_ticks() const { return twins_; }
+  // Tempo changes seen (each restarted the fit).
+  uint64_t tempo_changes() const { return changes_; }
 
  private:
   struct Tick {
@@ -82,6 +85,7 @@ class ClockFollower {
   int64_t ticks_ = 0;        // the grid's ticks since the first (taken and lost)
   uint64_t lost_ = 0;
   uint64_t twins_ = 0;
+  uint64_t changes_ = 0;
   double last_us_ = 0;       // when the last tick came
   struct Held {
     Tick tick;         // a tick that came after a long gap
