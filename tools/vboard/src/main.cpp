@@ -1,5 +1,6 @@
 // main.cpp: stepchoir-vboard: runs the firmware on a simulated board with a pty serial port.
 #include <limits.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <time.h>
@@ -37,7 +38,8 @@ volatile sig_atomic_t g_stop_signal = 0;
 constexpr uint64_t kChunkUs = 20;
 // The parent process and the host's open of the pty are looked at every this many chunks (1 ms).
 constexpr uint64_t kCheckChunks = 1000 / kChunkUs;
-// The simulation may run this far ahead of the wall clock before it sleeps.
+// The simulation may run this far ahead of the wall clock before it sleeps; host bytes end the
+// sleep (wait_until_ns), and are stamped with their wall time (host_arrival_ns).
 constexpr int64_t kAheadBeforeSleepNs = 200 * 1000;
 // When behind, at most this much is caught up in a burst; the rest is given up and reported.
 // 50 ms absorbs the pauses of the machine running the board, so its clock keeps the wall's
@@ -60,12 +62,34 @@ uint64_t monotonic_ns() {
   return static_cast<uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<uint64_t>(ts.tv_nsec);
 }
 
+// ns as a timespec.
+timespec to_timespec(uint64_t ns) {
+  timespec ts;
+  ts.tv_sec = static_cast<time_t>(ns / 1000000000ull);
+  ts.tv_nsec = static_cast<long>(ns % 1000000000ull);
+  return ts;
+}
+
 // Sleeps until the monotonic clock reads wall_ns (returns early on a signal).
 void sleep_until_ns(uint64_t wall_ns) {
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(wall_ns / 1000000000ull);
-  ts.tv_nsec = static_cast<long>(wall_ns % 1000000000ull);
+  const timespec ts = to_timespec(wall_ns);
   clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+}
+
+// Sleeps until the monotonic clock reads wall_ns, or until wake_fd (when >= 0) has bytes to read,
+// or a signal comes. A wake_fd that reports a hang-up (a pty master with no slave open; PtyLink
+// holds one open, so this is a safeguard) would end every wait at once: the rest is slept instead.
+void wait_until_ns(uint64_t wall_ns, int wake_fd) {
+  if (wake_fd >= 0) {
+    const uint64_t now_ns = monotonic_ns();
+    if (now_ns >= wall_ns) return;
+    const timespec timeout = to_timespec(wall_ns - now_ns);
+    pollfd wake = {wake_fd, POLLIN, 0};
+    const int ready = ppoll(&wake, 1, &timeout, nullptr);
+    const bool hung_up = ready == 1 && !(wake.revents & POLLIN) && (wake.revents & (POLLHUP | POLLERR | POLLNVAL));
+    if (!hung_up) return;  // the time came, host bytes wait, or a signal
+  }
+  sleep_until_ns(wall_ns);
 }
 
 // Default firmware path: <dir of this binary>/../firmware/stepchoir-<board>.elf.
@@ -127,7 +151,8 @@ struct LoopResult {
 uint64_t ms_to_cycles(double ms, const BoardConfig &board) { return static_cast<uint64_t>(ms * board.f_cpu_hz / 1000); }
 
 // The simulation loop: chunks of kChunkUs simulated time; between chunks the pty is polled and
-// flushed, the trace written out now and then, and (when pacing) the loop sleeps while ahead.
+// flushed, the trace written out now and then, and (when pacing) the loop sleeps while ahead
+// until the wall clock catches up or the host writes.
 LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter &avr, PtyLink &link,
                     TraceWriter &trace) {
   prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);  // 1 us sleep precision instead of 50 us
@@ -142,6 +167,7 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   trace.comment("wall_start cycle=" + std::to_string(avr.cycle()) + " monotonic_ns=" + std::to_string(start_wall_ns));
   avr.set_end_cycle(end_cycle);
   uint64_t last_trace_flush_ns = start_wall_ns;
+  uint64_t wall_ns = start_wall_ns;  // the wall clock at the last chunk's end or wait's end
   LoopResult result;
 
   const pid_t parent = getppid();
@@ -158,22 +184,27 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
       ++result.host_resets;
     }
     avr.leave_bootloader_when_done();
-    link.poll_rx();
+    // Host bytes are stamped, when pacing, with the simulated time of their arrival on the wall
+    // clock (wall_ns, read microseconds before): the USB frame the real bridge would put them
+    // in; else with the simulation's now.
+    link.poll_rx(options.pacing ? host_arrival_ns(pacer, link.now_ns(), wall_ns) : link.now_ns());
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();
     result.state = avr.run_until(left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle);
-    link.set_now_ns(static_cast<uint64_t>(static_cast<double>(avr.cycle()) * 1e9 / pacer.cycles_per_second()));
+    link.set_now_ns(pacer.sim_ns(avr.cycle()));
     const size_t passed = link.flush_tx();
     if (passed && options.trace_frames) trace.reply(avr.cycle(), passed);
     avr.maintain();
     if (result.state != CoreState::kRunning) break;
-    const uint64_t now_ns = monotonic_ns();
-    if (now_ns - last_trace_flush_ns >= kTraceFlushNs) {
+    wall_ns = monotonic_ns();
+    if (wall_ns - last_trace_flush_ns >= kTraceFlushNs) {
       trace.flush();
-      last_trace_flush_ns = now_ns;
+      last_trace_flush_ns = wall_ns;
     }
-    if (options.pacing && pacer.ahead_ns(avr.cycle(), now_ns) > kAheadBeforeSleepNs)
-      sleep_until_ns(pacer.due_wall_ns(avr.cycle()));
+    if (options.pacing && pacer.ahead_ns(avr.cycle(), wall_ns) > kAheadBeforeSleepNs) {
+      wait_until_ns(pacer.due_wall_ns(avr.cycle()), link.rx_wake_fd());
+      wall_ns = monotonic_ns();
+    }
   }
   link.flush_tx();
   result.wall_ns = monotonic_ns() - start_wall_ns;

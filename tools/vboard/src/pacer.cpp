@@ -19,6 +19,18 @@ uint64_t Pacer::due_wall_ns(uint64_t cycle) const {
   return anchor_wall_ns_ + static_cast<uint64_t>(elapsed_cycles * 1e9 / cycles_per_second_);
 }
 
+// The cycle due at wall_ns (inverse of due_wall_ns; the anchor's cycle before the anchor).
+uint64_t Pacer::cycle_at_wall_ns(uint64_t wall_ns) const {
+  if (wall_ns <= anchor_wall_ns_) return anchor_cycle_;
+  const double elapsed_ns = static_cast<double>(wall_ns - anchor_wall_ns_);
+  return anchor_cycle_ + static_cast<uint64_t>(elapsed_ns * cycles_per_second_ / 1e9);
+}
+
+// Simulated time of cycle, ns from cycle 0.
+uint64_t Pacer::sim_ns(uint64_t cycle) const {
+  return static_cast<uint64_t>(static_cast<double>(cycle) * 1e9 / cycles_per_second_);
+}
+
 // How far the simulation is ahead of the wall clock; records lag and bounds catch-up.
 int64_t Pacer::ahead_ns(uint64_t cycle, uint64_t wall_ns) {
   const int64_t ahead = static_cast<int64_t>(due_wall_ns(cycle) - wall_ns);
@@ -33,6 +45,12 @@ int64_t Pacer::ahead_ns(uint64_t cycle, uint64_t wall_ns) {
   anchor_wall_ns_ += give_up_ns;
   slipped_ns_ += give_up_ns;
   return -static_cast<int64_t>(max_catchup_ns_);
+}
+
+// When host bytes read at wall_ns arrived, in simulated ns, at most now_ns.
+uint64_t host_arrival_ns(const Pacer &pacer, uint64_t now_ns, uint64_t wall_ns) {
+  const uint64_t arrived_ns = pacer.sim_ns(pacer.cycle_at_wall_ns(wall_ns));
+  return arrived_ns < now_ns ? arrived_ns : now_ns;
 }
 
 }  // namespace vboard

@@ -20,6 +20,11 @@ class Pacer {
   void start(uint64_t cycle, uint64_t wall_ns);
   // Wall time (ns) at which cycle is due.
   uint64_t due_wall_ns(uint64_t cycle) const;
+  // The inverse of due_wall_ns: the cycle due at wall_ns (the anchor's cycle for an earlier wall
+  // time).
+  uint64_t cycle_at_wall_ns(uint64_t wall_ns) const;
+  // Simulated time of cycle, ns from cycle 0: the host time the loop gives PtyLink::set_now_ns.
+  uint64_t sim_ns(uint64_t cycle) const;
   // How far the simulation at cycle is ahead of wall_ns (negative = behind). Records the lag and,
   // beyond the catch-up limit, moves the anchor so at most max_catchup_ns remain to catch up.
   int64_t ahead_ns(uint64_t cycle, uint64_t wall_ns);
@@ -39,6 +44,12 @@ class Pacer {
   uint64_t lag_max_cycle_ = 0;
   uint64_t slipped_ns_ = 0;
 };
+
+// Host time (simulated ns, as sim_ns) to stamp host bytes with that the loop read at wall_ns
+// while the simulation stood at now_ns: when they arrived on the wall clock, mapped through the
+// pacer, and never after now_ns (the board cannot take them in its past). Called from: the
+// vboard's loop when pacing, before PtyLink::poll_rx.
+uint64_t host_arrival_ns(const Pacer &pacer, uint64_t now_ns, uint64_t wall_ns);
 
 }  // namespace vboard
 

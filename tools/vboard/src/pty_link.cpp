@@ -113,13 +113,13 @@ bool PtyLink::take_host_open() {
   }
 }
 
-// Reads what the host wrote into the receive queue.
-void PtyLink::poll_rx() {
+// Reads what the host wrote into the receive queue, as arrived at host time arrival_ns.
+void PtyLink::poll_rx(uint64_t arrival_ns) {
   uint8_t buffer[4096];
   while (bridge_.host_bytes_waiting() < kRxQueueMax) {
     const ssize_t count = ::read(master_fd_, buffer, sizeof buffer);
     if (count > 0) {
-      bridge_.from_host(buffer, static_cast<size_t>(count), now_ns_);
+      bridge_.from_host(buffer, static_cast<size_t>(count), arrival_ns);
       rx_bytes_ += static_cast<uint64_t>(count);
       if (static_cast<size_t>(count) < sizeof buffer) return;
       continue;

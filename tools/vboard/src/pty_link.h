@@ -12,11 +12,12 @@
 namespace vboard {
 
 // Owns a raw pty pair. The host opens slave_path(); the simulator loop calls poll_rx() and
-// flush_tx() without ever blocking. A slave fd stays open here so the pty does not hang up
-// when the host closes it. Bytes for a host that does not read are buffered up to a limit,
-// then dropped and counted. Between the pty and the board's UART sits a USB bridge model
-// (usb_bridge.h; ideal unless set_bridge gives another), on host time that the loop sets with
-// set_now_ns before each chunk of simulation (so its times hold to a chunk, 20 us).
+// flush_tx() without ever blocking, and while it paces it waits on rx_wake_fd(), so that host
+// bytes end its sleep. A slave fd stays open here so the pty does not hang up when the host
+// closes it. Bytes for a host that does not read are buffered up to a limit, then dropped and
+// counted. Between the pty and the board's UART sits a USB bridge model (usb_bridge.h; ideal
+// unless set_bridge gives another), on host time that the loop sets with set_now_ns before each
+// chunk of simulation (so its times hold to a chunk, 20 us).
 class PtyLink {
  public:
   PtyLink() = default;
@@ -39,14 +40,20 @@ class PtyLink {
   const UsbBridge &bridge() const { return bridge_; }
   // Host time now (ns from the start of the simulation, on the host's clock).
   void set_now_ns(uint64_t now_ns) { now_ns_ = now_ns; }
+  uint64_t now_ns() const { return now_ns_; }
 
   // True when the host opened the pty while nobody had it open, since the last call (inotify
   // on the slave): a real port's first open raises DTR, which resets an Uno or a Mega; a second
   // program opening it meanwhile does not, nor does a close.
   bool take_host_open();
 
-  // Reads what the host wrote into the receive queue (stops while the queue is full).
-  void poll_rx();
+  // Reads what the host wrote into the receive queue (stops while the queue is full), as
+  // arrived at host time arrival_ns (at most now; the loop's host_arrival_ns when pacing).
+  void poll_rx(uint64_t arrival_ns);
+  // The fd whose readability means host bytes wait (the pty's master), for the loop to wait on
+  // while it sleeps; -1 while the receive queue is full (poll_rx leaves the bytes unread then,
+  // so the fd would end every wait at once).
+  int rx_wake_fd() const { return bridge_.host_bytes_waiting() < kRxQueueMax ? master_fd_ : -1; }
   // True when received bytes have reached the AVR's UART.
   bool rx_pending() const { return bridge_.board_byte_ready(now_ns_); }
   // Takes the next received byte (rx_pending() must be true).

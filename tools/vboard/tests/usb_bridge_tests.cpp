@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "pacer.h"
 #include "usb_bridge.h"
 
 using namespace vboard;
@@ -119,4 +120,30 @@ TEST_CASE("usb bridge: ch340 sends in the next 1 ms frame, or a full 32-byte pac
   for (int i = 0; i < 32; ++i) b.from_board(uint8_t(i), 5100000);
   b.to_host(5100000, out);
   CHECK(out.size() == 32);
+}
+
+TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, never after the simulation's now") {
+  Pacer pacer(16e6, 0, 50 * kMs);
+  pacer.start(0, 0);  // simulated ns equal wall ns
+  // The simulation stands at 2.45 ms. Bytes read at wall 2.25 ms (the loop woke while 0.2 ms
+  // ahead) arrived at 2.25 ms; read at wall 2.6 ms (the simulation 0.15 ms behind), at 2.45 ms.
+  CHECK(host_arrival_ns(pacer, 2450000, 2250000) == 2250000);
+  CHECK(host_arrival_ns(pacer, 2450000, 2600000) == 2450000);
+
+  // A 16u2 with frames starting at 0.3 ms: the byte written at 2.25 ms goes in the 2.3 ms
+  // frame, as on a real board, while the simulation (at 2.29 ms) has not reached that frame.
+  UsbBridge b = make(LinkModel::k16u2, 300000);
+  const uint8_t byte = 0x42;
+  b.from_host(&byte, 1, host_arrival_ns(pacer, 2290000, 2250000));
+  CHECK_FALSE(b.board_byte_ready(2299999));
+  CHECK(b.board_byte_ready(2300000));
+  b.board_byte_pop();
+  // The simulation at 2.45 ms: the frame's start lies inside its lead, so the board takes the
+  // byte at once, 0.15 ms late; stamped with the simulation's now it would wait for 3.3 ms.
+  b.from_host(&byte, 1, host_arrival_ns(pacer, 2450000, 2250000));
+  CHECK(b.board_byte_ready(2450000));
+  b.board_byte_pop();
+  b.from_host(&byte, 1, 2450000);
+  CHECK_FALSE(b.board_byte_ready(3299999));
+  CHECK(b.board_byte_ready(3300000));
 }

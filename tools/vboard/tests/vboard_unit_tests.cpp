@@ -120,6 +120,27 @@ TEST_CASE("pacer maps cycles to wall time with the crystal error and bounds catc
   CHECK(p.due_wall_ns(16000) == 16000000);
 }
 
+TEST_CASE("pacer maps a wall time back to its cycle and simulated time") {
+  Pacer fast(16e6, 100000, 5000000);  // +10 %: 17.6 million cycles a second
+  fast.start(1000, 5000);
+  CHECK(fast.cycle_at_wall_ns(5000 + 1000000000ull) == 1000 + 17600000);
+  CHECK(fast.cycle_at_wall_ns(5000) == 1000);
+  CHECK(fast.cycle_at_wall_ns(0) == 1000);  // before the anchor: the anchor's cycle
+  for (uint64_t cycle : {1000ull, 17601ull, 123456789ull}) {
+    const uint64_t back = fast.cycle_at_wall_ns(fast.due_wall_ns(cycle));
+    CHECK(back <= cycle);
+    CHECK(cycle - back <= 1);  // the ns rounding, below a cycle
+  }
+  CHECK(fast.sim_ns(17600000) == 1000000000ull);
+
+  Pacer p(16e6, 0, 5000000);
+  p.start(0, 0);
+  CHECK(p.cycle_at_wall_ns(1000000) == 16000);
+  CHECK(p.ahead_ns(16000, 21000000) == -5000000);  // 15 ms given up: the anchor moves
+  CHECK(p.cycle_at_wall_ns(16000000) == 16000);
+  CHECK(p.cycle_at_wall_ns(p.due_wall_ns(32000)) == 32000);
+}
+
 TEST_CASE("trace writer formats header and rows") {
   FILE *stream = std::tmpfile();
   REQUIRE(stream);
