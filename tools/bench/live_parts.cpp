@@ -64,7 +64,6 @@ Split split_notes(const sc::trace::Trace &t, const std::vector<NoteStamps> &note
     p.wire = static_cast<double>(last - first) / t.real_f_cpu_hz() * 1e6;
     p.firmware = static_cast<double>(it->cycle - last) / t.real_f_cpu_hz() * 1e6;
     p.total = total;
-    p.after_midi = total - p.jack;
     out.worst_sum_error_us = std::max(out.worst_sum_error_us, std::fabs(p.sum() - p.total));
     out.parts.push_back(p);
   }
@@ -75,23 +74,25 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
                         unsigned frame_bytes, unsigned baud) {
   struct Row {
     const char *name, *span;
-    double NoteParts::*part;
+    double (*part)(const NoteParts &);
     std::string bound;
   };
   const double wire_us = frame_bytes * 10.0 * 1e6 / baud;
   const Row rows[] = {
-      {"JACK", "sender hands the note to JACK -> the MIDI callback's stamp", &NoteParts::jack,
+      {"JACK", "sender hands the note to JACK -> the MIDI callback's stamp", [](const NoteParts &p) { return p.jack; },
        "one period, " + std::to_string(static_cast<int>(std::lround(jack_period_us))) + " us"},
-      {"host", "callback -> write() on the link returned", &NoteParts::host, "none (the live path's own work)"},
-      {"link", "write returned -> the frame's first byte at the board's UART", &NoteParts::link,
+      {"host", "callback -> write() on the link returned", [](const NoteParts &p) { return p.host; },
+       "none (the live path's own work)"},
+      {"link", "write returned -> the frame's first byte at the board's UART", [](const NoteParts &p) { return p.link; },
        link_model == "ideal" ? "none (a pty)" : "the next 1 ms USB frame"},
-      {"wire", "first byte -> last byte at the UART", &NoteParts::wire,
+      {"wire", "first byte -> last byte at the UART", [](const NoteParts &p) { return p.wire; },
        std::to_string(frame_bytes - 1) + " byte times after the first, " +
            std::to_string(static_cast<int>(std::lround(wire_us * (frame_bytes - 1) / frame_bytes))) + " us"},
-      {"firmware", "last byte -> first STEP edge", &NoteParts::firmware, "bench/results/onset-latency.md"},
-      {"after MIDI in", "the MIDI callback's stamp -> first STEP edge", &NoteParts::after_midi,
+      {"firmware", "last byte -> first STEP edge", [](const NoteParts &p) { return p.firmware; },
+       "bench/results/onset-latency.md"},
+      {"after MIDI in", "the MIDI callback's stamp -> first STEP edge", [](const NoteParts &p) { return p.after_midi(); },
        "all but JACK: stepchoir, the link and the board"},
-      {"total", "key -> first STEP edge", &NoteParts::total, ""},
+      {"total", "key -> first STEP edge", [](const NoteParts &p) { return p.total; }, ""},
   };
   std::ostringstream out;
   out << std::fixed << std::setprecision(1);
@@ -106,7 +107,7 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
       << "| part | from -> to | p50 us | p99 us | max us | bound |\n|---|---|---|---|---|---|\n";
   for (const Row &r : rows) {
     std::vector<double> v;
-    for (const NoteParts &p : split.parts) v.push_back(p.*(r.part));
+    for (const NoteParts &p : split.parts) v.push_back(r.part(p));
     out << "| " << r.name << " | " << r.span << " | " << percentile(v, 0.5) << " | " << percentile(v, 0.99)
         << " | " << percentile(v, 1.0) << " | " << r.bound << " |\n";
   }

@@ -28,8 +28,8 @@ struct NoteParts {
   double wire = 0;      // first byte -> last byte (the delimiter) at the UART, cycles exact
   double firmware = 0;  // last byte -> the motor's first STEP edge, cycles exact
   double total = 0;     // key -> first STEP edge
-  double after_midi = 0;  // the MIDI callback's stamp -> first STEP edge: total less the JACK part
   double sum() const { return jack + host + link + wire + firmware; }
+  double after_midi() const { return total - jack; }  // the MIDI callback's stamp -> first STEP edge
 };
 
 struct Split {

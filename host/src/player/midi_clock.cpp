@@ -16,7 +16,7 @@ void ClockFollower::take(const ClockMessage &m) {
         // line: the same tick again (JACK hands a client that missed its cycle the cycle's
         // events twice), not a new one.
         if (gap < 0.5 && us - last_us_ < kTwinUs && held_count_ == 0 &&
-            us < intercept_ + slope_ * (static_cast<double>(ticks_) - 0.5)) {
+            us < line_us(ticks_) - 0.5 * slope_) {
           ++twins_;
           break;
         }
@@ -26,24 +26,19 @@ void ClockFollower::take(const ClockMessage &m) {
             join_held(false);
           } else if (std::fabs(gap - 1) < kLostSlack) {  // this one a period on: lost ones, if they fit so
             join_held(lost_fits_better(us));
-          } else if (gap >= 1.5 && std::llround(gap) <= kMaxLostRun && held_count_ < kMaxHeld) {
-            held_[held_count_++] = {{ticks_, us}, std::llround(gap) - 1};  // another: the next tells
-            last_us_ = us;
-            ++ticks_;
-            break;
-          } else {  // late by less each time, or the clock slowed down (note_change sees that)
-            join_held(false);
-          }
+          } else if (gap < 1.5 || std::llround(gap) > kMaxLostRun || held_count_ == kMaxHeld) {
+            join_held(false);  // late by less each time, or the clock slowed down (note_change sees that)
+          }  // else after a long gap too: held with them below, and the next tells
         }
         last_us_ = us;
         // Right after the one before and not early (early: a tempo over twice as fast, for the
         // fit to follow): held up and delivered with it, counted, not fitted.
-        if (gap < 0.5 && us > intercept_ + slope_ * static_cast<double>(ticks_) - kChangeUs) {
+        if (gap < 0.5 && us > line_us(ticks_) - kChangeUs) {
           ++ticks_;
           break;
         }
         const int64_t whole = std::llround(gap);
-        if (whole >= 2 && whole <= kMaxLostRun) {  // out of the fit until the next tick tells why
+        if (whole >= 2 && whole <= kMaxLostRun) {  // out of the fit until a tick a period on tells why
           held_[held_count_++] = {{ticks_, us}, whole - 1};
           ++ticks_;
           break;
@@ -112,16 +107,15 @@ void ClockFollower::join_held(bool lost) {
 // ticks before them.
 bool ClockFollower::lost_fits_better(double us) const {
   const auto sq = [](double x) { return x * x; };
-  const auto line = [this](int64_t n) { return intercept_ + slope_ * static_cast<double>(n); };
   double held = 0, gone = 0;
   int64_t shift = 0;
   for (size_t i = 0; i < held_count_; ++i) {
     shift += held_[i].lost;
-    held += sq(held_[i].tick.us - line(held_[i].tick.n));
-    gone += sq(held_[i].tick.us - line(held_[i].tick.n + shift));
+    held += sq(held_[i].tick.us - line_us(held_[i].tick.n));
+    gone += sq(held_[i].tick.us - line_us(held_[i].tick.n + shift));
   }
-  held += sq(us - line(ticks_));
-  gone += sq(us - line(ticks_ + shift));
+  held += sq(us - line_us(ticks_));
+  gone += sq(us - line_us(ticks_ + shift));
   return gone < held;
 }
 
@@ -138,7 +132,7 @@ void ClockFollower::note_change(const Tick &tick) {
     change_run_ = 0;
     return;
   }
-  const double residual = tick.us - (intercept_ + slope_ * static_cast<double>(tick.n));
+  const double residual = tick.us - line_us(tick.n);
   const int sign = residual > 0 ? 1 : -1;
   // A new tempo's ticks go further off the line each time; ticks held up by a stalled path
   // come back to it.
@@ -154,7 +148,7 @@ void ClockFollower::note_change(const Tick &tick) {
   ++changes_;
   count_ = hinge_back(tick) + 1;  // the anchor and the ticks after it
   Tick &anchor = ring_[(next_ - count_) % kWindow];
-  anchor.us = intercept_ + slope_ * static_cast<double>(anchor.n);
+  anchor.us = line_us(anchor.n);
   change_run_ = 0;
 }
 

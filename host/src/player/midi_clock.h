@@ -74,6 +74,8 @@ class ClockFollower {
     int64_t n = 0;   // its number on the grid
     double us = 0;   // when it came (the first after a tempo change: its time on the old line)
   };
+  // Host us of tick n on the line.
+  double line_us(int64_t n) const { return intercept_ + slope_ * static_cast<double>(n); }
   void join(const Tick &tick);
   void join_held(bool lost);
   void fit();
