@@ -67,10 +67,16 @@ static const uint16_t kTriggerAfterTicks = 800;
 // held up by the handlers nested in it took up to about 2,500 cycles at full line speed.
 static const uint16_t kVisitMarginTicks = 4096;
 
-// A motor that starts from silence plays its first edge this long after its channel is armed
-// (ticks; a live note: from the arming, after DIR was set; a sounding motor's retune: at the
-// soonest this long after the command was taken): more than kArmGuardTicks plus the arming.
+// A motor that starts from silence by arm() (a timed entry taken late, a move) plays its first
+// edge this long after its channel is armed, after DIR was set; a sounding motor's retune comes
+// at the soonest this long after the command was taken (ticks): more than kArmGuardTicks plus
+// the arming.
 static const uint16_t kStartLeadTicks = 288;
+// A live note on a silent motor plays its first edge this long after the main loop reads the
+// timer to write its channel's compare (ticks, or the motor's pulse width when longer: DIR was
+// set before): the write comes about 25 cycles after the read, with interrupts off; the Uno's
+// Timer2 counts cycles / 8.
+static const uint8_t kFireLeadTicks = 48;
 
 // The main loop checks the motors' silence for their drivers' idle power-down this often
 // (ticks; 1 ms): a driver powers down at most this long after its idle time. Between checks a
@@ -100,6 +106,7 @@ static const uint8_t kPulseUsMax = 10;
 static const uint32_t kDefaultTravelSteps = 3200;
 
 static_assert(kStartLeadTicks >= kArmGuardTicks + 224, "arm() (about 200 cycles) finds the first edge far enough ahead");
+static_assert(kFireLeadTicks >= 40, "the compare written for a live note's first edge is well ahead of its timer");
 static_assert(kStartLeadTicks >= kPulseUsMax * 16u, "a note that turns DIR waits the set-up time of every supported driver");
 static_assert(kPulseUsMax * 16u < 256u, "pulse_ticks fits a byte");
 static_assert(kTakeTicks >= 4 * kVisitMarginTicks, "a timed entry is taken well before its motor's edges near its time");

@@ -245,6 +245,15 @@ void start_period(Motor &m, uint32_t period_q8) {
   }
 }
 
+// A silent motor starts at period (not silence): DIR by the border rule, its first edge at
+// `first` (a live note's is set by the caller's arming), and the onset ramp. The caller hands
+// the motor to its channel.
+inline void start_silent(Motor &m, uint32_t period, uint32_t first) {
+  set_dir(m, start_up(m));
+  m.deadline = first;
+  start_period(m, period);
+}
+
 // Motor m takes period (sc::kPeriodSilent: silence) now, or, timed, exactly at board time
 // `at`: a silent motor starts (its first edge on the time, or kStartLeadTicks from now), a
 // sounding one keeps its phase (the next edge one new period after the last), or strikes on
@@ -260,9 +269,7 @@ bool apply(Motor &m, uint32_t period, bool want_timed, uint32_t at) {
     m.period_q8 = 0;
     m.flags &= (uint8_t)~(kRamp | kRestrike);
   } else if (m.period_q8 == 0) {
-    set_dir(m, start_up(m));
-    m.deadline = timed ? at : soonest;
-    start_period(m, period);
+    start_silent(m, period, timed ? at : soonest);
   } else if (!timed) {
     m.flags &= (uint8_t)~(kRamp | kRestrike);
     if (m.period_q8 != period) {

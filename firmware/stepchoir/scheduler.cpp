@@ -134,15 +134,36 @@ template <uint8_t M> void poke() {
   }
 }
 
+// Called from: main loop (command: a live note on a silent motor, its DIR set). Brings the
+// motor's first edge `lead` ticks from now through its own channel: the compare written that
+// close with the count-off and busy bits clear, so its stub raises STEP on the match and its
+// handler schedules the next edge from m.deadline. (arm() checks the time left twice, about
+// 200 cycles, and wants kStartLeadTicks ahead.) From the timer read to the bits, interrupts off
+// about 45 cycles: the write comes about 25 cycles after the read, well inside the lead.
+template <uint8_t M> void fire(uint8_t lead) {
+  typedef Chan<M> C;
+  Motor &m = g_motor[M];
+  const uint32_t base = now();
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    C::settle();
+    const uint32_t d = base + (int16_t)((uint16_t)(TCNT1 + lead) - (uint16_t)base);
+    C::write(C::value(d));
+    m.deadline = d;
+    GPIOR0 &= (uint8_t)~_BV(M);  // the match raises (no count-off)
+    busy_clear<M>();
+  }
+}
+
 // Called from: main loop. Channel operations by motor index.
 struct Ops {
   bool (*arm)(uint32_t);
+  void (*fire)(uint8_t);
   void (*busy)();
   void (*poke)();
 };
 template <uint8_t M> bool arm_m(uint32_t d) { return arm<M>(d); }
 template <uint8_t M> void busy_m() { busy_set<M>(); }
-#define SC_OPS(M) {arm_m<M>, busy_m<M>, poke<M>}
+#define SC_OPS(M) {arm_m<M>, fire<M>, busy_m<M>, poke<M>}
 const Ops kOps[kMotors] = {
     SC_OPS(0), SC_OPS(1), SC_OPS(2), SC_OPS(3),
 #if defined(__AVR_ATmega2560__)
@@ -190,6 +211,14 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
     }
   }
   m.cmd = kCmdNone;
+  if (!timed && m.period_q8 == 0 && period != sc::kPeriodSilent) {
+    // A live note on a silent motor: its first edge at once, kFireLeadTicks after DIR at least
+    // (the set-up time of the motor's driver, its pulse width, when longer).
+    start_silent(m, period, 0);
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { g_sounding |= bit; }
+    kOps[mi].fire(m.pulse_ticks > cfg::kFireLeadTicks ? m.pulse_ticks : cfg::kFireLeadTicks);
+    return true;
+  }
   const bool ok = apply(m, period, timed, at);
   if (m.period_q8 != 0) start(mi);
   return ok;
@@ -332,7 +361,19 @@ void silence_all() {
   g_queue.clear();  // the queue's entries with them
 }
 
-void set_period(uint8_t m, uint32_t period_q8) { command(m, period_q8, false, 0); }
+void set_period(uint8_t mi, uint32_t period_q8) {
+  if (period_q8 == sc::kPeriodSilent && !(g_sounding & (1u << mi))) {
+    // Silence for a silent motor (the host's refresh of every motor): what command() and
+    // apply() do for it, without their clock read and checks (about 30 cycles, not 300: a
+    // refresh's four entries held up a note right behind them by 50 us more).
+    Motor &m = g_motor[mi];
+    m.cmd = kCmdNone;
+    m.period_q8 = 0;
+    m.flags &= (uint8_t)~(kRamp | kRestrike);
+    return;
+  }
+  command(mi, period_q8, false, 0);
+}
 
 void set_period_at(uint8_t m, uint32_t period_q8, uint32_t at_ticks) { command(m, period_q8, true, at_ticks); }
 
