@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <vector>
 #include <fstream>
+#include <random>
 #include <string>
 #include <thread>
 
@@ -70,7 +71,7 @@ int main(int argc, char **argv) {
   app.add_option("--link-model", link_model, "the virtual board's USB bridge: ideal, 16u2, ftdi or ch340")
       ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
   int onsets = 200;
-  app.add_option("--onsets", onsets, "notes of the key -> first STEP phase, 50 ms apart (default 200)")
+  app.add_option("--onsets", onsets, "notes of the key -> first STEP phase, 45-55 ms apart (default 200)")
       ->check(CLI::Range(10, 100000));
   CLI11_PARSE(app, argc, argv);
   std::string command;
@@ -108,11 +109,15 @@ int main(int argc, char **argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double cpu_s = cpu_seconds() - cpu0;
-  // Key -> first STEP edge: single notes 50 ms apart, each released after 20 ms, so that each
-  // starts a silent motor; the send times and the host's stamps of each note against the
-  // trace's frames and edges on the monotonic clock.
+  // Key -> first STEP edge: single notes 45-55 ms apart, each released after 20 ms, so that
+  // each starts a silent motor; the send times and the host's stamps of each note against the
+  // trace's frames and edges on the monotonic clock. The gaps vary (a fixed seed) as a
+  // player's do: at a fixed 50 ms every fifth note would fall at the same point of the host's
+  // 250 ms refresh, on it in some runs and never in others.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   std::vector<live_parts::NoteStamps> notes;
+  std::mt19937 gaps(1);
+  std::uniform_int_distribution<int> rest_us(25000, 35000);
   for (int i = 0; i < onsets; ++i) {
     const uint8_t note = static_cast<uint8_t>(60 + i % 12);
     const uint64_t key = monotonic_us();
@@ -121,7 +126,7 @@ int main(int argc, char **argv) {
     const uint64_t callback = stats.last_event_us.load(), written = stats.last_written_us.load();
     notes.push_back(callback >= key ? live_parts::NoteStamps{key, callback, written} : live_parts::NoteStamps{key, 0, 0});
     keys.send(note_off(0, note));
-    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    std::this_thread::sleep_for(std::chrono::microseconds(rest_us(gaps)));
   }
   // What the board says once everything was released: a status request goes out each second.
   std::this_thread::sleep_for(std::chrono::milliseconds(2 * kStatusEveryMs + 200));
@@ -188,7 +193,7 @@ int main(int argc, char **argv) {
       << "| CPU of this process (sender, MidiIn, engine, writer, reader) | " << 100.0 * cpu_s / wall_s
       << " % of one core over " << wall_s << " s |\n"
       << "| peak memory of this process (resident) | " << peak_rss_mib() << " MiB |\n\n"
-      << "Key -> first STEP edge: " << onsets << " single notes 50 ms apart after the flood, from the sender's "
+      << "Key -> first STEP edge: " << onsets << " single notes 45-55 ms apart after the flood, from the sender's "
          "clock just before it hands the note to JACK to the board's first STEP edge, the trace laid on the same "
          "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames, "
       << period_us << " us at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
