@@ -138,8 +138,9 @@ template <uint8_t M> void poke() {
 // motor's first edge `lead` ticks from now through its own channel: the compare written that
 // close with the count-off and busy bits clear, so its stub raises STEP on the match and its
 // handler schedules the next edge from m.deadline. (arm() checks the time left twice, about
-// 200 cycles, and wants kStartLeadTicks ahead.) From the timer read to the bits, interrupts off
-// about 45 cycles: the write comes about 25 cycles after the read, well inside the lead.
+// 200 cycles, and wants kStartLeadTicks ahead.) Interrupts off about 40 cycles (the virtual
+// board's PC trace; longer while the emulator's settle waits on a sibling compare): the write
+// comes about 25 cycles after the timer read, well inside the lead.
 template <uint8_t M> void fire(uint8_t lead) {
   typedef Chan<M> C;
   Motor &m = g_motor[M];
