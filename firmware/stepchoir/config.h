@@ -47,8 +47,9 @@ static const uint8_t kRxRingBytes = 128;
 // UART transmit ring (bytes, power of two); replies are rare and at most one frame each.
 static const uint8_t kTxRingBytes = 128;
 
-// A channel is armed for an edge at least this far ahead (ticks): its compare register and
-// flag are written, then the time left is checked, with interrupts off (about 30 cycles); the
+// arm() arms a channel for an edge at least this far ahead (ticks; trigger() writes a compare
+// kTriggerLeadTicks ahead): its compare register and flag are written, then the
+// time left is checked, with interrupts off (about 30 cycles); the
 // Uno's Timer2 counts cycles / 8 and may stand a tick off Timer1. Closer, the ISR raises the
 // edge itself (late).
 static const uint8_t kArmGuardTicks = 64;
@@ -59,7 +60,11 @@ static const uint8_t kArmFinalTicks = 16;
 
 // A command for a sounding motor brings its channel's ISR (a visit) this soon (ticks), unless
 // the channel's next match is due within kTriggerAfterTicks anyway: the visit re-arms the
-// channel from the motor's next deadline, which must still be kArmGuardTicks away then.
+// channel from the motor's next deadline, which must still be kArmGuardTicks away then. A live
+// note on a silent motor plays its first edge this soon (fire). trigger() writes the compare a
+// few cycles after reading the channel's timer; the Uno's Timer2 counts cycles / 8; the
+// emulator fires a compare written 16 ticks or more ahead on its tick
+// (docs/decisions/014-emulator-workarounds.md).
 static const uint8_t kTriggerLeadTicks = 48;
 static const uint16_t kTriggerAfterTicks = 800;
 // ... but no visit is brought when the motor's next edge is due within this long (ticks; 256
@@ -67,16 +72,12 @@ static const uint16_t kTriggerAfterTicks = 800;
 // held up by the handlers nested in it took up to about 2,500 cycles at full line speed.
 static const uint16_t kVisitMarginTicks = 4096;
 
-// A motor that starts from silence by arm() (a timed entry taken late, a move) plays its first
-// edge this long after its channel is armed, after DIR was set; a sounding motor's retune comes
+// A motor that starts from silence by arm() (a timed entry, a move, a live note its handler
+// takes after it fell silent) plays its first edge at the soonest this long after its channel
+// is armed, after DIR was set; a sounding motor's retune comes
 // at the soonest this long after the command was taken (ticks): more than kArmGuardTicks plus
 // the arming.
 static const uint16_t kStartLeadTicks = 288;
-// A live note on a silent motor plays its first edge this long after the main loop reads the
-// timer to write its channel's compare (ticks, or the motor's pulse width when longer: DIR was
-// set before): the write comes about 25 cycles after the read, with interrupts off; the Uno's
-// Timer2 counts cycles / 8.
-static const uint8_t kFireLeadTicks = 48;
 
 // The main loop checks the motors' silence for their drivers' idle power-down this often
 // (ticks; 1 ms): a driver powers down at most this long after its idle time. Between checks a
@@ -106,8 +107,8 @@ static const uint8_t kPulseUsMax = 10;
 static const uint32_t kDefaultTravelSteps = 3200;
 
 static_assert(kStartLeadTicks >= kArmGuardTicks + 224, "arm() (about 200 cycles) finds the first edge far enough ahead");
-static_assert(kFireLeadTicks >= 40, "the compare written for a live note's first edge is well ahead of its timer");
-static_assert(kStartLeadTicks >= kPulseUsMax * 16u, "a note that turns DIR waits the set-up time of every supported driver");
+static_assert(kTriggerLeadTicks >= 16 + 16, "a compare brought by trigger() is written 16 ticks ahead of its match at least");
+static_assert(kStartLeadTicks >= kPulseUsMax * 16u, "a start armed after DIR waits the set-up time of every supported driver");
 static_assert(kPulseUsMax * 16u < 256u, "pulse_ticks fits a byte");
 static_assert(kTakeTicks >= 4 * kVisitMarginTicks, "a timed entry is taken well before its motor's edges near its time");
 static_assert((uint32_t)sc::kWakeUsMax * (F_CPU / 1000000ul) + kStartLeadTicks <= kTakeTicks,

@@ -246,7 +246,7 @@ void start_period(Motor &m, uint32_t period_q8) {
 }
 
 // A silent motor starts at period (not silence): DIR by the border rule, its first edge at
-// `first` (a live note's is set by the caller's arming), and the onset ramp. The caller hands
+// `first` (a live note's is set by fire() in scheduler.cpp), and the onset ramp. The caller hands
 // the motor to its channel.
 inline void start_silent(Motor &m, uint32_t period, uint32_t first) {
   set_dir(m, start_up(m));

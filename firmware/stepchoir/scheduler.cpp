@@ -134,22 +134,32 @@ template <uint8_t M> void poke() {
   }
 }
 
-// Called from: main loop (command: a live note on a silent motor, its DIR set). Brings the
-// motor's first edge `lead` ticks from now through its own channel: the compare written that
-// close with the count-off and busy bits clear, so its stub raises STEP on the match and its
-// handler schedules the next edge from m.deadline. (arm() checks the time left twice, about
-// 200 cycles, and wants kStartLeadTicks ahead.) Interrupts off about 40 cycles (the virtual
-// board's PC trace; longer while the emulator's settle waits on a sibling compare): the write
-// comes about 25 cycles after the timer read, well inside the lead.
-template <uint8_t M> void fire(uint8_t lead) {
+// Called from: main loop (command: a live note on a silent motor, its DIR set no later than
+// dir_set, a Timer1 count). Brings the motor's first edge cfg::kTriggerLeadTicks from now
+// through its own channel (Chan<M>::trigger: the compare that far past the channel's own
+// timer, written a few cycles after reading it) with the count-off and busy bits clear, so its
+// stub raises STEP on the match and its handler schedules the next edge from m.deadline.
+// (arm() checks the time left twice, about 200 cycles, and wants kStartLeadTicks ahead.)
+// First it waits until the motor's pulse width has passed since dir_set: the edge comes after
+// the write in any case, and at the write itself when the channel's old value matched during
+// it (its flag is taken once interrupts are on, the busy bit clear), so DIR's set-up holds
+// whatever the lead; the next edge still comes a period after m.deadline. Interrupts off about
+// 45 cycles, more while the emulator's settle (in trigger) waits on a sibling compare.
+template <uint8_t M> void fire(uint16_t dir_set) {
   typedef Chan<M> C;
   Motor &m = g_motor[M];
-  const uint32_t base = now();
+  for (;;) {
+    uint16_t t;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { t = TCNT1; }
+    if ((uint16_t)(t - dir_set) >= m.pulse_ticks) break;
+  }
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    C::settle();
-    const uint32_t d = base + (int16_t)((uint16_t)(TCNT1 + lead) - (uint16_t)base);
-    C::write(C::value(d));
-    m.deadline = d;
+    const uint16_t t = TCNT1;
+    C::trigger();
+    // The match's board time, to the emulator's settle and Timer2's 8-cycle grid: the next
+    // edge's phase only. g_time_base as now() extends Timer1 (at most 32,767 ticks old).
+    const uint32_t base = g_time_base;
+    m.deadline = base + (int16_t)((uint16_t)(t + cfg::kTriggerLeadTicks) - (uint16_t)base);
     GPIOR0 &= (uint8_t)~_BV(M);  // the match raises (no count-off)
     busy_clear<M>();
   }
@@ -158,7 +168,7 @@ template <uint8_t M> void fire(uint8_t lead) {
 // Called from: main loop. Channel operations by motor index.
 struct Ops {
   bool (*arm)(uint32_t);
-  void (*fire)(uint8_t);
+  void (*fire)(uint16_t);
   void (*busy)();
   void (*poke)();
 };
@@ -188,7 +198,7 @@ void start(uint8_t mi) {
 // Called from: main loop. Motor mi takes period now, or timed at `at`. A silent motor is
 // started here (its channel is off: nothing else touches it); a sounding one gets the command
 // in its mailbox, and its channel's ISR takes it within microseconds (poke). Interrupts off
-// at most about 30 cycles at a time.
+// at most about 30 cycles at a time, about 50 in fire().
 bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
   Motor &m = g_motor[mi];
   const uint8_t bit = (uint8_t)(1u << mi);
@@ -213,11 +223,15 @@ bool command(uint8_t mi, uint32_t period, bool timed, uint32_t at) {
   }
   m.cmd = kCmdNone;
   if (!timed && m.period_q8 == 0 && period != sc::kPeriodSilent) {
-    // A live note on a silent motor: its first edge at once, kFireLeadTicks after DIR at least
-    // (the set-up time of the motor's driver, its pulse width, when longer).
+    // A live note on a silent motor: its first edge at once, a pulse width after DIR at least
+    // (every supported driver's DIR set-up time).
     start_silent(m, period, 0);
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { g_sounding |= bit; }
-    kOps[mi].fire(m.pulse_ticks > cfg::kFireLeadTicks ? m.pulse_ticks : cfg::kFireLeadTicks);
+    uint16_t dir_set;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      dir_set = TCNT1;
+      g_sounding |= bit;
+    }
+    kOps[mi].fire(dir_set);
     return true;
   }
   const bool ok = apply(m, period, timed, at);

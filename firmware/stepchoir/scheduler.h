@@ -17,8 +17,8 @@
 //
 // So an edge is late only by what keeps interrupts off when it is due: another stub (19
 // cycles; 29 when it counts off a match, 37 at the last), the receive ISR (14 cycles at entry,
-// 15 a byte, 8 and 7 at exit), a critical section of the main loop or a handler (at most about
-// 20).
+// 15 a byte, 8 and 7 at exit), a critical section of the main loop or a handler (about 20
+// cycles; about 50 when the main loop writes a live note's compare, fire).
 // The handler lowers STEP once the pulse is over, then does the step's bookkeeping (position,
 // endstops, soft limits, reversal), takes a command from the motor's mailbox, works out the
 // next deadline and arms the compare. The matches a long period's deadline is a timer wrap or

@@ -219,7 +219,7 @@ std::vector<double> onset_latencies(const std::string &board, int notes, uint8_t
 // UART: the byte is received one byte time (10 us) later, as on the wire, where it is also the
 // last 10 us of the frame's wire time. The firmware then decodes it (the main loop waits for a
 // frame's bytes as they come), checks the entry and, the motor being silent, sets DIR and
-// writes the motor's channel compare kFireLeadTicks (3 us) ahead (sched::command, fire); the
+// writes the motor's channel compare kTriggerLeadTicks (3 us) ahead (sched::command, fire); the
 // channel's stub raises the edge. The first note of a run wakes the drivers; it is reported
 // apart. The spread is the main loop's phase when the frame comes (a pass's other work).
 // The test holds every note within 0.3 ms (a MIDI cable takes 960 us for one note-on); its p99
