@@ -378,9 +378,9 @@ void silence_all() {
 
 void set_period(uint8_t mi, uint32_t period_q8) {
   if (period_q8 == sc::kPeriodSilent && !(g_sounding & (1u << mi))) {
-    // Silence for a silent motor (the host's refresh of every motor): what command() and
-    // apply() do for it, without their clock read and checks (about 30 cycles, not 300: a
-    // refresh's four entries held up a note right behind them by 50 us more).
+    // Silence for a silent motor (the host's refresh sends one for every motor, in one frame a
+    // note may follow at once): what command() and apply() do for it, without their clock
+    // read and checks, about 30 cycles.
     Motor &m = g_motor[mi];
     m.cmd = kCmdNone;
     m.period_q8 = 0;
