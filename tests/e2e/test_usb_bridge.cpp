@@ -20,6 +20,7 @@ namespace {
 
 struct BridgeRun {
   std::vector<double> frame_ns;   // host time of each host frame's delimiter at the UART
+  std::vector<double> frame_us;   // each host frame's first byte -> its delimiter at the UART
   std::vector<double> reply_ns;   // host time of each pass of board bytes to the host
   // Host time at which frame i's reply was whole at the host: the last pass before the next
   // frame (the host sends it only then; a reply may go in pieces: byte by byte on the ideal
@@ -51,8 +52,10 @@ BridgeRun clock_rounds(const std::string &model, int rounds) {
   // The clock requests' delimiters are the last rows (before them: hello's, and its resync
   // delimiter unless the firmware's receiver was not on yet).
   REQUIRE(t.frame_ends.size() >= size_t(rounds));
-  for (size_t i = t.frame_ends.size() - size_t(rounds); i < t.frame_ends.size(); ++i)
+  for (size_t i = t.frame_ends.size() - size_t(rounds); i < t.frame_ends.size(); ++i) {
     run.frame_ns.push_back(double(t.frame_ends[i]) * 1e9 / t.f_cpu_hz);
+    run.frame_us.push_back(double(t.frame_ends[i] - t.frame_starts[i]) * 1e6 / t.f_cpu_hz);
+  }
   for (const auto &r : t.replies) {
     run.reply_ns.push_back(double(r.cycle) * 1e9 / t.f_cpu_hz);
   }
@@ -102,6 +105,16 @@ TEST_CASE("link: on the 16u2 model host frames land on 1 ms USB frames and repli
   CHECK(usb_rtt_max < 4096e3 + 300e3);
   CHECK(usb_rtt_max > 3000e3);  // some replies just missed an overflow
   CHECK(ideal_rtt_max < 300e3);
+  // A clock request is 6 bytes on the wire. The ideal link hands them to the UART a byte time
+  // (10 us) apart; the 16U2 one a pass of its main loop (about 15 us, docs/usb-bridges.md).
+  const auto [usb_min, usb_max] = std::minmax_element(usb.frame_us.begin(), usb.frame_us.end());
+  const auto [ideal_min, ideal_max] = std::minmax_element(ideal.frame_us.begin(), ideal.frame_us.end());
+  INFO("a clock request's first byte -> delimiter: 16u2 " << *usb_min << "-" << *usb_max << " us, ideal " << *ideal_min
+                                                           << "-" << *ideal_max << " us");
+  CHECK(*ideal_min > 49.9);
+  CHECK(*ideal_max < 51.0);
+  CHECK(*usb_min > 5 * 15.0);
+  CHECK(*usb_max < 5 * 16.0);
 }
 
 TEST_CASE("link: opening the port resets an Uno or a Mega, and the host waits out the bootloader") {

@@ -86,8 +86,9 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
       {"link", "write returned -> the frame's first byte at the board's UART", [](const NoteParts &p) { return p.link; },
        link_model == "ideal" ? "none (a pty)" : "the next 1 ms USB frame"},
       {"wire", "first byte -> last byte at the UART", [](const NoteParts &p) { return p.wire; },
-       std::to_string(frame_bytes - 1) + " byte times after the first, " +
-           std::to_string(static_cast<int>(std::lround(wire_us * (frame_bytes - 1) / frame_bytes))) + " us"},
+       std::to_string(frame_bytes - 1) + " bytes after the first: " +
+           std::to_string(static_cast<int>(std::lround(wire_us * (frame_bytes - 1) / frame_bytes))) +
+           " us at the line's rate" + (link_model == "16u2" ? ", more at the 16U2's pace (docs/usb-bridges.md)" : "")},
       {"firmware", "last byte -> first STEP edge", [](const NoteParts &p) { return p.firmware; },
        "bench/results/onset-latency.md"},
       {"after MIDI in", "the MIDI callback's stamp -> first STEP edge", [](const NoteParts &p) { return p.after_midi(); },
@@ -112,7 +113,8 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
         << " | " << percentile(v, 1.0) << " | " << r.bound << " |\n";
   }
   out << "\nThe virtual board hands a frame's first byte to the UART as soon as the bridge releases it, each "
-         "next one a byte time later: the wire part is the frame's other " << frame_bytes - 1
+         "next one a byte time later, or at the bridge's own pace when that is slower (the 16U2's: "
+         "docs/usb-bridges.md): the wire part is the frame's other " << frame_bytes - 1
       << " bytes (on a real bridge the first byte takes one byte time more, " << wire_us / frame_bytes << " us).\n";
   return out.str();
 }

@@ -75,6 +75,9 @@ class AvrAdapter : public SwitchPinDriver {
   CoreState run_until(uint64_t end_cycle);
   // Starts feeding received host bytes to UART0 (call after PtyLink::poll_rx()).
   void kick_rx();
+  // Host bytes reach UART0 at most one per this many cycles, or one per byte time when that is
+  // longer: the USB bridge's own pace (BridgeTiming::host_byte_ns). 0: the byte time.
+  void set_rx_gap_cycles(uint64_t cycles) { rx_gap_cycles_ = cycles; }
   // Between chunks: re-writes the switch levels into the PIN registers and re-arms our cycle
   // timers if an MCU reset (watchdog) cleared them. Cheap.
   void maintain();
@@ -145,6 +148,7 @@ class AvrAdapter : public SwitchPinDriver {
   uint64_t tx_shift_free_cycle_ = 0;  // when UART0's transmit shift register is empty
   bool rx_timer_armed_ = false;
   uint64_t next_rx_cycle_ = 0;
+  uint64_t rx_gap_cycles_ = 0;
   bool wake_armed_ = false;
   uint64_t wake_cycle_ = 0;
   uint64_t end_cycle_ = UINT64_MAX;

@@ -1,6 +1,7 @@
 // avr_uart.cpp: the UART0 bridge between the pty and simavr: byte timing, receive feed, transmit double buffer.
 #include "avr_adapter.h"
 
+#include <algorithm>
 #include <cstdint>
 
 extern "C" {
@@ -104,7 +105,8 @@ void AvrAdapter::on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param) {
   if (!self->xoff_) self->kick_rx();
 }
 
-// Delivers one host byte to UART0; reschedules itself one byte time later while bytes remain.
+// Delivers one host byte to UART0; reschedules itself one byte time (or the bridge's pace,
+// set_rx_gap_cycles, when longer) later while bytes remain.
 uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
   (void)when;
   AvrAdapter *self = static_cast<AvrAdapter *>(param);
@@ -140,7 +142,7 @@ uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
   } else if (deliver) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
   }
-  self->next_rx_cycle_ = avr->cycle + self->uart_byte_cycles();
+  self->next_rx_cycle_ = avr->cycle + std::max(self->uart_byte_cycles(), self->rx_gap_cycles_);
   if (self->xoff_ || (self->repeat_byte_ < 0 && !self->link_.rx_pending())) {
     self->rx_timer_armed_ = false;
     return 0;

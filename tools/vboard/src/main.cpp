@@ -318,6 +318,7 @@ int run(const Options &options, FILE *real_stdout) {
   }
   link.set_bridge(make_bridge(options));
   AvrAdapter avr(board, model, link);
+  avr.set_rx_gap_cycles(link.bridge().timing().host_byte_ns * board.f_cpu_hz / 1000000000ull);
   model.set_driver(&avr);
   LineNoiseRates rates;
   rates.drop = options.line_drop;

@@ -33,6 +33,9 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
       // BUFFER_NEARLY_FULL (96) bytes wait.
       t.flush_period_ns = 256ull * 256 * 1000000000ull / 16000000;
       t.packet_bytes = 97;
+      // One host byte a pass of its main loop: about 245 cycles at 16 MHz by the instruction
+      // count of Arduino's build (docs/usb-bridges.md).
+      t.host_byte_ns = 245ull * 1000000000ull / 16000000;
       break;
     case LinkModel::kFtdi:
       t.flush_period_ns = uint64_t(ftdi_latency_ms) * 1000000;

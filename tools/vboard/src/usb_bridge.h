@@ -5,8 +5,9 @@
 // Models (sources: docs/usb-bridges.md):
 //   ideal  bytes pass at once both ways (a pty, a native UART).
 //   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): host -> board in
-//          the next 1 ms USB frame; board -> host when the 16U2's Timer0 overflows (every
-//          4.096 ms, free-running) or as soon as more than 96 bytes wait.
+//          the next 1 ms USB frame, then a byte a pass of the 16U2's main loop (about 15 us);
+//          board -> host when the 16U2's Timer0 overflows (every 4.096 ms, free-running) or as
+//          soon as more than 96 bytes wait.
 //   ftdi   FT232R boards: host -> board in the next 1 ms frame; board -> host when the
 //          latency timer expires (16 ms by default, restarted by every packet sent) or a
 //          62-byte packet is full.
@@ -32,6 +33,8 @@ const char *link_model_name(LinkModel model);
 // The bridge's figures (ns, bytes); what link_model_timing gives per model.
 struct BridgeTiming {
   uint64_t usb_frame_ns = 1000000;  // host -> board: a write goes out at the next frame start
+  uint64_t host_byte_ns = 0;        // ... and the bridge hands the UART a byte at most this often
+                                    // (0: back to back at the line's rate); AvrAdapter paces it
   uint64_t flush_period_ns = 0;     // board -> host: waiting bytes go at each period's end (0: at once)
   bool restart_on_packet = false;   // a full packet restarts the period (FTDI's latency timer)
   size_t packet_bytes = 0;          // ... and a full packet goes at once (0: no such rule)
@@ -63,6 +66,7 @@ class UsbBridge {
   size_t board_bytes_waiting() const { return from_board_.size(); }
 
   LinkModel model() const { return model_; }
+  const BridgeTiming &timing() const { return timing_; }
 
  private:
   struct Timed {
