@@ -273,5 +273,5 @@ TEST_CASE("link: a note right behind the host's refresh of every motor starts wi
   std::sort(lat.begin(), lat.end());
   std::printf("onset uno, right behind a refresh frame: p50 %.1f us, max %.1f us\n", lat[lat.size() / 2] / 16.0,
               lat.back() / 16.0);
-  CHECK(lat.back() / 16.0 < 260.0);
+  CHECK(lat.back() / 16.0 < 200.0);  // 167 us measured; 243 us without the early return
 }
