@@ -187,10 +187,19 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
     // Host bytes are stamped, when pacing, with the simulated time of their arrival on the wall
     // clock (wall_ns, read microseconds before): the USB frame the real bridge would put them
     // in; else with the simulation's now.
-    link.poll_rx(options.pacing ? host_arrival_ns(pacer, link.now_ns(), wall_ns) : link.now_ns());
+    link.poll_rx(options.pacing ? host_arrival_ns(pacer, wall_ns) : link.now_ns());
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();
-    result.state = avr.run_until(left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle);
+    uint64_t stop_cycle = left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle;
+    // The bridge releasing a host byte, or passing the board's bytes to the host, within the
+    // chunk ends the chunk there: the next pass's kick_rx hands the byte to the UART on its
+    // cycle, and flush_tx writes the board's bytes to the pty at their time, not the chunk's end.
+    for (const uint64_t release_ns : {link.rx_next_ns(), link.tx_next_ns()}) {
+      if (release_ns == UINT64_MAX || release_ns <= link.now_ns()) continue;
+      const uint64_t release_cycle = pacer.cycle_at_sim_ns(release_ns);
+      if (release_cycle > avr.cycle() && release_cycle < stop_cycle) stop_cycle = release_cycle;
+    }
+    result.state = avr.run_until(stop_cycle);
     link.set_now_ns(pacer.sim_ns(avr.cycle()));
     const size_t passed = link.flush_tx();
     if (passed && options.trace_frames) trace.reply(avr.cycle(), passed);

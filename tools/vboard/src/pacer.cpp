@@ -31,6 +31,14 @@ uint64_t Pacer::sim_ns(uint64_t cycle) const {
   return static_cast<uint64_t>(static_cast<double>(cycle) * 1e9 / cycles_per_second_);
 }
 
+// The first cycle at or after simulated time ns (the double rounding corrected by a cycle).
+uint64_t Pacer::cycle_at_sim_ns(uint64_t ns) const {
+  uint64_t cycle = static_cast<uint64_t>(static_cast<double>(ns) * cycles_per_second_ / 1e9);
+  while (cycle > 0 && sim_ns(cycle - 1) >= ns) --cycle;
+  while (sim_ns(cycle) < ns) ++cycle;
+  return cycle;
+}
+
 // How far the simulation is ahead of the wall clock; records lag and bounds catch-up.
 int64_t Pacer::ahead_ns(uint64_t cycle, uint64_t wall_ns) {
   const int64_t ahead = static_cast<int64_t>(due_wall_ns(cycle) - wall_ns);
@@ -47,10 +55,7 @@ int64_t Pacer::ahead_ns(uint64_t cycle, uint64_t wall_ns) {
   return -static_cast<int64_t>(max_catchup_ns_);
 }
 
-// When host bytes read at wall_ns arrived, in simulated ns, at most now_ns.
-uint64_t host_arrival_ns(const Pacer &pacer, uint64_t now_ns, uint64_t wall_ns) {
-  const uint64_t arrived_ns = pacer.sim_ns(pacer.cycle_at_wall_ns(wall_ns));
-  return arrived_ns < now_ns ? arrived_ns : now_ns;
-}
+// When host bytes read at wall_ns arrived, in simulated ns.
+uint64_t host_arrival_ns(const Pacer &pacer, uint64_t wall_ns) { return pacer.sim_ns(pacer.cycle_at_wall_ns(wall_ns)); }
 
 }  // namespace vboard

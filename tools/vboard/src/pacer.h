@@ -25,6 +25,9 @@ class Pacer {
   uint64_t cycle_at_wall_ns(uint64_t wall_ns) const;
   // Simulated time of cycle, ns from cycle 0: the host time the loop gives PtyLink::set_now_ns.
   uint64_t sim_ns(uint64_t cycle) const;
+  // The inverse of sim_ns: the first cycle whose simulated time is ns or later (where the loop
+  // ends a chunk so that a host byte reaches the UART when the bridge releases it).
+  uint64_t cycle_at_sim_ns(uint64_t ns) const;
   // How far the simulation at cycle is ahead of wall_ns (negative = behind). Records the lag and,
   // beyond the catch-up limit, moves the anchor so at most max_catchup_ns remain to catch up.
   int64_t ahead_ns(uint64_t cycle, uint64_t wall_ns);
@@ -45,11 +48,12 @@ class Pacer {
   uint64_t slipped_ns_ = 0;
 };
 
-// Host time (simulated ns, as sim_ns) to stamp host bytes with that the loop read at wall_ns
-// while the simulation stood at now_ns: when they arrived on the wall clock, mapped through the
-// pacer, and never after now_ns (the board cannot take them in its past). Called from: the
-// vboard's loop when pacing, before PtyLink::poll_rx.
-uint64_t host_arrival_ns(const Pacer &pacer, uint64_t now_ns, uint64_t wall_ns);
+// Host time (simulated ns, as sim_ns) to stamp host bytes with that the loop read at wall_ns:
+// when they arrived on the wall clock, mapped through the pacer. A simulation behind the wall
+// clock takes them when it reaches that time, not before (the bridge holds them); one ahead of
+// it takes them at once, up to its lead late. Called from: the vboard's loop when pacing, before
+// PtyLink::poll_rx.
+uint64_t host_arrival_ns(const Pacer &pacer, uint64_t wall_ns);
 
 }  // namespace vboard
 

@@ -48,7 +48,7 @@ class PtyLink {
   bool take_host_open();
 
   // Reads what the host wrote into the receive queue (stops while the queue is full), as
-  // arrived at host time arrival_ns (at most now; the loop's host_arrival_ns when pacing).
+  // arrived at host time arrival_ns (the loop's host_arrival_ns when pacing, else now).
   void poll_rx(uint64_t arrival_ns);
   // The fd whose readability means host bytes wait (the pty's master), for the loop to wait on
   // while it sleeps; -1 while the receive queue is full (poll_rx leaves the bytes unread then,
@@ -58,6 +58,10 @@ class PtyLink {
   bool rx_pending() const { return bridge_.board_byte_ready(now_ns_); }
   // Takes the next received byte (rx_pending() must be true).
   uint8_t rx_pop();
+  // Host time (ns) at which the next received byte reaches the UART; UINT64_MAX when none waits.
+  uint64_t rx_next_ns() const { return bridge_.next_board_byte_ns(); }
+  // Host time (ns) at which the bridge next passes the board's bytes on; UINT64_MAX when none wait.
+  uint64_t tx_next_ns() const { return bridge_.next_host_pass_ns(); }
   // Queues one byte the AVR sent.
   void tx_push(uint8_t byte);
   // Writes the bytes the bridge has passed to the host by now as far as the pty accepts them;

@@ -54,6 +54,8 @@ class UsbBridge {
   bool board_byte_ready(uint64_t now_ns) const;
   // Takes that byte (board_byte_ready must be true).
   uint8_t board_byte_pop();
+  // When the next host byte reaches the board (ns, host time); UINT64_MAX when none waits.
+  uint64_t next_board_byte_ns() const { return to_board_.empty() ? UINT64_MAX : to_board_.front().at_ns; }
   // Host bytes not yet taken by the board (released or not).
   size_t host_bytes_waiting() const { return to_board_.size(); }
 
@@ -64,6 +66,9 @@ class UsbBridge {
   void to_host(uint64_t now_ns, std::vector<uint8_t> &out);
   // Board bytes the bridge still holds.
   size_t board_bytes_waiting() const { return from_board_.size(); }
+  // When the bridge next passes held board bytes to the host (ns, host time); UINT64_MAX when it
+  // holds none.
+  uint64_t next_host_pass_ns() const { return from_board_.empty() ? UINT64_MAX : next_flush_ns_; }
 
   LinkModel model() const { return model_; }
   const BridgeTiming &timing() const { return timing_; }

@@ -122,28 +122,36 @@ TEST_CASE("usb bridge: ch340 sends in the next 1 ms frame, or a full 32-byte pac
   CHECK(out.size() == 32);
 }
 
-TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, never after the simulation's now") {
+TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, before or after the simulation's now") {
   Pacer pacer(16e6, 0, 50 * kMs);
   pacer.start(0, 0);  // simulated ns equal wall ns
-  // The simulation stands at 2.45 ms. Bytes read at wall 2.25 ms (the loop woke while 0.2 ms
-  // ahead) arrived at 2.25 ms; read at wall 2.6 ms (the simulation 0.15 ms behind), at 2.45 ms.
-  CHECK(host_arrival_ns(pacer, 2450000, 2250000) == 2250000);
-  CHECK(host_arrival_ns(pacer, 2450000, 2600000) == 2450000);
+  // Bytes read at wall 2.25 ms arrived at 2.25 ms, wherever the simulation stands.
+  CHECK(host_arrival_ns(pacer, 2250000) == 2250000);
 
   // A 16u2 with frames starting at 0.3 ms: the byte written at 2.25 ms goes in the 2.3 ms
   // frame, as on a real board, while the simulation (at 2.29 ms) has not reached that frame.
   UsbBridge b = make(LinkModel::k16u2, 300000);
   const uint8_t byte = 0x42;
-  b.from_host(&byte, 1, host_arrival_ns(pacer, 2290000, 2250000));
+  b.from_host(&byte, 1, host_arrival_ns(pacer, 2250000));
+  CHECK(b.next_board_byte_ns() == 2300000);
   CHECK_FALSE(b.board_byte_ready(2299999));
   CHECK(b.board_byte_ready(2300000));
   b.board_byte_pop();
+  CHECK(b.next_board_byte_ns() == UINT64_MAX);
   // The simulation at 2.45 ms: the frame's start lies inside its lead, so the board takes the
   // byte at once, 0.15 ms late; stamped with the simulation's now it would wait for 3.3 ms.
-  b.from_host(&byte, 1, host_arrival_ns(pacer, 2450000, 2250000));
+  b.from_host(&byte, 1, host_arrival_ns(pacer, 2250000));
   CHECK(b.board_byte_ready(2450000));
   b.board_byte_pop();
-  b.from_host(&byte, 1, 2450000);
+  // The simulation behind, at 2.1 ms: read at wall 2.6 ms, the byte goes in the 3.3 ms frame;
+  // stamped with the simulation's now it would go in the 2.3 ms one, before it was written.
+  b.from_host(&byte, 1, host_arrival_ns(pacer, 2600000));
   CHECK_FALSE(b.board_byte_ready(3299999));
   CHECK(b.board_byte_ready(3300000));
+  b.board_byte_pop();
+  // The ideal link holds a byte that arrived after the simulation's now until then.
+  UsbBridge ideal = make(LinkModel::kIdeal, 0);
+  ideal.from_host(&byte, 1, host_arrival_ns(pacer, 2600000));
+  CHECK_FALSE(ideal.board_byte_ready(2100000));
+  CHECK(ideal.board_byte_ready(2600000));
 }
