@@ -61,6 +61,7 @@ int main(int argc, char **argv) {
                                    {"furelise.sng", "mega", 5000, false}, {"furelise.sng", "mega", -5000, false},
                                    {"furelise.sng", "uno", 0, true}};
   std::string table;
+  double worst_p99_us = 0, worst_cents = 0;  // over the runs, for the reading under the table
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     const Case &c = cases[ci];
     if (only >= 0 && static_cast<size_t>(only) != ci) continue;
@@ -106,6 +107,8 @@ int main(int argc, char **argv) {
                   r.found, r.notes, pct(r.onset_err_us, 0.5), pct(r.onset_err_us, 0.99), pct(r.onset_err_us, 1.0),
                   r.tempo_ppm, r.max_cents, r.max_spread_cents, r.max_release_late_us, r.max_release_early_us,
                   sc::trace::pacing_slipped_us(t));
+    worst_p99_us = std::max(worst_p99_us, pct(r.onset_err_us, 0.99));
+    worst_cents = std::max(worst_cents, r.max_cents);
     std::fputs(row, stdout);
     std::fflush(stdout);
     table += row;
@@ -135,8 +138,14 @@ int main(int argc, char **argv) {
                "host, and the pitch in real time moves by as much).\n\n"
                "| song | board | crystal ppm | host stalled | notes found | onset p50 us | onset p99 us | onset max us | "
                "tempo ppm | pitch worst cent | pitch spread cent | release late us | release early us | slip us |\n"
-               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n%s",
-               date, table.c_str());
+               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n%s\n"
+               "Reading: the virtual board runs behind its default USB bridge model, the 16U2's (1 ms USB frames, "
+               "4 ms reply batches: docs/usb-bridges.md), and each run meets the board for the first time. Onsets keep "
+               "to the song's line within %.0f us (99 %%, every run) and every note is within %.2f cent in real time, "
+               "the stalled host included; the first seconds carry the rate the clock fit had after its sync, refined "
+               "as the song goes on. `ctest -R \"play:\"` checks the same on a test song (onsets 99 %% within 0.5 ms "
+               "behind a bridge) and fails a run in which the virtual board slipped.\n",
+               date, table.c_str(), std::ceil(worst_p99_us), worst_cents);
   std::fclose(f);
   std::printf("wrote %s\n", path.c_str());
   return 0;
