@@ -162,6 +162,23 @@ TEST_CASE("link: opening the port resets an Uno or a Mega, and the host waits ou
   CHECK(b.greet().motor_count == 4);  // its announcement still waits in the pty
 }
 
+TEST_CASE("link: with --no-auto-reset the host's opens leave the board running") {
+  const std::string trace_path = e2e::scratch("no-reset.csv");
+  {
+    VboardProcess vb({"--board", "uno", "--no-auto-reset", "--link-model", "16u2", "--no-pacing", "--seconds", "30",
+                      "--trace", trace_path, "--trace-frames", "--quiet"});
+    for (uint8_t i = 0; i < 3; ++i) {  // three opens, each answered at once
+      Board b(open_link(vb.pty()));
+      b.hello();
+      e2e::board_ticks(b, i);
+    }
+    REQUIRE(vb.stop() == 0);
+  }
+  const tr::Trace t = tr::read_trace(trace_path);
+  CHECK(t.mcu_resets.empty());
+  CHECK(t.frame_ends.size() >= 6);  // each open's hello and clock request reached the firmware
+}
+
 TEST_CASE("link: stepchoir hello greets an Uno and a Mega that its open resets") {
   for (const std::string board : {"uno", "mega"}) {
     const std::string trace_path = e2e::scratch("greet-" + board + ".csv");

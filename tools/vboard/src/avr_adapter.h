@@ -10,6 +10,7 @@
 #include "board_config.h"
 #include "cpu_profiler.h"
 #include "line_noise.h"
+#include "pacer.h"
 #include "pty_link.h"
 #include "virtual_board.h"
 
@@ -58,6 +59,11 @@ class AvrAdapter : public SwitchPinDriver {
   void set_line_noise(LineNoise *noise) { noise_ = noise; }
   // Writes a trace row whenever a frame delimiter (0x00) reaches UART0 (nullptr = none).
   void set_frame_trace(TraceWriter *trace) { frame_trace_ = trace; }
+  // The host's time of each cycle, for the USB bridge: a host byte reaches UART0 on the cycle
+  // the bridge releases it, a board byte is stamped with the cycle it was sent on, and a run
+  // ends where the bridge passes board bytes to the host. Must outlive the adapter; until it is
+  // set, the link's now (set between chunks) stands for every cycle and runs end where asked.
+  void set_pacer(const Pacer *pacer) { pacer_ = pacer; }
 
   // Flash size in bytes.
   uint32_t flash_bytes() const;
@@ -70,8 +76,10 @@ class AvrAdapter : public SwitchPinDriver {
   // Makes a sleeping core stop at end_cycle instead of jumping past it (one cycle timer; a timer
   // per chunk would perturb simavr's wake-up timing, which depends on where timers fall).
   void set_end_cycle(uint64_t end_cycle);
-  // Runs until cycle >= end_cycle, or the core stops. A sleeping core jumps to its next timer,
-  // so it may pass end_cycle (except the one given to set_end_cycle).
+  // Runs until cycle >= end_cycle, or the core stops, or (with a pacer) the bridge passes board
+  // bytes to the host: the caller then flushes them (PtyLink::flush_tx) on their cycle. A
+  // sleeping core jumps to its next timer, so it may pass end_cycle (except the one given to
+  // set_end_cycle).
   CoreState run_until(uint64_t end_cycle);
   // Starts feeding received host bytes to UART0 (call after PtyLink::poll_rx()).
   void kick_rx();
@@ -112,6 +120,13 @@ class AvrAdapter : public SwitchPinDriver {
   void apply_initial_levels();
   // Registers the pin, UART and XON/XOFF callbacks.
   void hook_callbacks();
+  // The host's time (ns) at cycle: the pacer's, else the link's now.
+  uint64_t host_ns(uint64_t cycle) const { return pacer_ ? pacer_->sim_ns(cycle) : link_.now_ns(); }
+  // The cycle the next host byte reaches UART0 at, no sooner than `earliest`; 0 when none waits
+  // or (without a pacer) it is not released yet.
+  uint64_t rx_cycle(uint64_t earliest) const;
+  // Ends the current run where the bridge next passes board bytes to the host (with a pacer).
+  void end_run_at_tx_pass();
   // UART0 byte time in cycles from its current registers (start + data + parity + stop bits).
   uint64_t uart_byte_cycles() const;
   // Makes simavr time UART0 bytes correctly (it counts a parity bit always; see notes).
@@ -146,6 +161,8 @@ class AvrAdapter : public SwitchPinDriver {
   std::vector<avr_irq_t *> switch_irqs_;
   bool xoff_ = false;
   uint64_t tx_shift_free_cycle_ = 0;  // when UART0's transmit shift register is empty
+  const Pacer *pacer_ = nullptr;
+  uint64_t run_end_cycle_ = 0;  // run_until stops here; end_run_at_tx_pass may bring it closer
   bool rx_timer_armed_ = false;
   uint64_t next_rx_cycle_ = 0;
   uint64_t rx_gap_cycles_ = 0;

@@ -26,12 +26,15 @@ inline bool core_stopped(int state) {
 
 }  // namespace
 
-// Runs until cycle >= end_cycle or the core stops. With a profiler, every step is sampled.
+// Runs until cycle >= end_cycle, the core stops or the bridge passes board bytes to the host
+// (run_end_cycle_, which end_run_at_tx_pass lowers). With a profiler, every step is sampled.
 CoreState AvrAdapter::run_until(uint64_t end_cycle) {
   avr_t *const avr = avr_;
   int state = avr->state;
+  run_end_cycle_ = end_cycle;
+  end_run_at_tx_pass();  // board bytes the bridge already holds
   if (!profiler_) {
-    while (avr->cycle < end_cycle && !core_stopped(state)) state = avr_run(avr);
+    while (avr->cycle < run_end_cycle_ && !core_stopped(state)) state = avr_run(avr);
   } else {
     CpuProfiler &profiler = *profiler_;
     const uint8_t *const flash = avr->flash;
@@ -46,7 +49,7 @@ CoreState AvrAdapter::run_until(uint64_t end_cycle) {
     // PATH becomes the process id); map them to functions with avr-addr2line or avr-objdump -d.
     static PcProfile pc_profile(std::getenv("STEPCHOIR_VBOARD_PCPROFILE"), avr->flashend + 1);
     const bool tracing = !pc_trace.path.empty();  // a register, not a load, every step
-    while (avr->cycle < end_cycle && !core_stopped(state)) {
+    while (avr->cycle < run_end_cycle_ && !core_stopped(state)) {
       if (tracing && pc_trace.record(avr)) pc_trace.dump(avr);
       s.pc_before_bytes = avr->pc;
       s.cycle_before = avr->cycle;

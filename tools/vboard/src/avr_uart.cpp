@@ -26,13 +26,35 @@ void AvrAdapter::on_rxcie_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void 
     avr_raise_interrupt(avr, &uart->rxc);
 }
 
-// Starts feeding received host bytes to UART0, one per byte time.
+// The cycle the next host byte reaches UART0 at: `earliest`, or later when the bridge releases
+// it later (a duplicated byte's second copy is already here).
+uint64_t AvrAdapter::rx_cycle(uint64_t earliest) const {
+  if (repeat_byte_ >= 0) return earliest;
+  const uint64_t release_ns = link_.rx_next_ns();
+  if (release_ns == UINT64_MAX) return 0;
+  if (release_ns <= host_ns(earliest)) return earliest;
+  if (!pacer_) return 0;  // the loop kicks again after the next chunk
+  return pacer_->cycle_at_sim_ns(release_ns);
+}
+
+// Starts feeding received host bytes to UART0: each on the cycle its bridge releases it, one
+// per byte time (or the bridge's pace) at most.
 void AvrAdapter::kick_rx() {
-  if (rx_timer_armed_ || xoff_ || (repeat_byte_ < 0 && !link_.rx_pending())) return;
+  if (rx_timer_armed_ || xoff_) return;
   const uint64_t now = avr_->cycle;
-  const uint64_t delay_cycles = next_rx_cycle_ > now ? next_rx_cycle_ - now : 1;
-  avr_cycle_timer_register(avr_, delay_cycles, &AvrAdapter::on_rx_timer, this);
+  const uint64_t at = rx_cycle(next_rx_cycle_ > now ? next_rx_cycle_ : now + 1);
+  if (at == 0) return;
+  avr_cycle_timer_register(avr_, at - now, &AvrAdapter::on_rx_timer, this);
   rx_timer_armed_ = true;
+}
+
+// Lowers the current run's end to the cycle the bridge next passes board bytes to the host.
+void AvrAdapter::end_run_at_tx_pass() {
+  const uint64_t pass_ns = link_.tx_next_ns();
+  if (pass_ns == UINT64_MAX || !pacer_) return;
+  const uint64_t now = avr_->cycle;
+  const uint64_t at = pass_ns > pacer_->sim_ns(now) ? pacer_->cycle_at_sim_ns(pass_ns) : now + 1;
+  if (at < run_end_cycle_) run_end_cycle_ = at;
 }
 
 // UART0 byte time in cycles: (UBRR+1) * (U2X ? 8 : 16) per bit, start + data + parity + stop bits.
@@ -66,7 +88,8 @@ void AvrAdapter::on_uart_output(avr_irq_t *irq, uint32_t value, void *param) {
   avr_t *avr = self->avr_;
   self->fix_uart_timing();
   ++self->uart_out_bytes_;
-  self->link_.tx_push(static_cast<uint8_t>(value));
+  self->link_.tx_push(static_cast<uint8_t>(value), self->host_ns(avr->cycle));
+  self->end_run_at_tx_pass();
   const uint64_t byte_cycles = self->uart_byte_cycles();
   if (self->tx_shift_free_cycle_ <= avr->cycle) {
     self->tx_shift_free_cycle_ = avr->cycle + byte_cycles;
@@ -106,14 +129,17 @@ void AvrAdapter::on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param) {
 }
 
 // Delivers one host byte to UART0; reschedules itself one byte time (or the bridge's pace,
-// set_rx_gap_cycles, when longer) later while bytes remain.
+// set_rx_gap_cycles, when longer) later while bytes remain, or for the cycle the bridge
+// releases the next one.
 uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
   (void)when;
   AvrAdapter *self = static_cast<AvrAdapter *>(param);
-  if (self->xoff_ || (self->repeat_byte_ < 0 && !self->link_.rx_pending())) {
+  const uint64_t at = self->xoff_ ? 0 : self->rx_cycle(avr->cycle);
+  if (at == 0) {
     self->rx_timer_armed_ = false;  // XON (or the next poll) restarts it
     return 0;
   }
+  if (at > avr->cycle) return at;  // not released yet: stays armed
   const avr_uart_t *uart = static_cast<const avr_uart_t *>(self->uart_);
   uint8_t byte;
   bool deliver = true;
@@ -143,11 +169,11 @@ uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
   }
   self->next_rx_cycle_ = avr->cycle + std::max(self->uart_byte_cycles(), self->rx_gap_cycles_);
-  if (self->xoff_ || (self->repeat_byte_ < 0 && !self->link_.rx_pending())) {
+  if (self->xoff_ || (self->repeat_byte_ < 0 && self->link_.rx_next_ns() == UINT64_MAX)) {
     self->rx_timer_armed_ = false;
     return 0;
   }
-  return self->next_rx_cycle_;
+  return self->next_rx_cycle_;  // a byte the bridge releases later waits there (rx_cycle)
 }
 
 }  // namespace vboard

@@ -36,11 +36,14 @@ volatile sig_atomic_t g_stop_signal = 0;
 
 // Simulated time per loop chunk: the pty is polled and the trace flushed between chunks.
 constexpr uint64_t kChunkUs = 20;
-// The parent process and the host's open of the pty are looked at every this many chunks (1 ms).
+// The parent process and the host's open of the pty are looked at every this many chunks (about
+// 1 ms).
 constexpr uint64_t kCheckChunks = 1000 / kChunkUs;
 // The simulation may run this far ahead of the wall clock before it sleeps; host bytes end the
-// sleep (wait_until_ns), and are stamped with their wall time (host_arrival_ns).
-constexpr int64_t kAheadBeforeSleepNs = 200 * 1000;
+// sleep (wait_until_ns), and are stamped with their wall time (host_arrival_ns). Host bytes come
+// up to this late, the board's reach the host up to this early; a shorter lead costs more
+// wake-ups (docs/decisions/020-vboard-pacing-catch-up.md).
+constexpr int64_t kAheadBeforeSleepNs = 100 * 1000;
 // When behind, at most this much is caught up in a burst; the rest is given up and reported.
 // 50 ms absorbs the pauses of the machine running the board, so its clock keeps the wall's
 // rate (docs/decisions/020-vboard-pacing-catch-up.md); the worst lag is still
@@ -150,7 +153,8 @@ struct LoopResult {
 // Board cycles in ms of its time.
 uint64_t ms_to_cycles(double ms, const BoardConfig &board) { return static_cast<uint64_t>(ms * board.f_cpu_hz / 1000); }
 
-// The simulation loop: chunks of kChunkUs simulated time; between chunks the pty is polled and
+// The simulation loop: chunks of up to kChunkUs simulated time (a chunk ends early where the
+// USB bridge passes board bytes to the host); between chunks the pty is polled and
 // flushed, the trace written out now and then, and (when pacing) the loop sleeps while ahead
 // until the wall clock catches up or the host writes.
 LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter &avr, PtyLink &link,
@@ -160,6 +164,7 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   const uint64_t end_cycle =
       options.seconds > 0 ? static_cast<uint64_t>(std::llround(options.seconds * board.f_cpu_hz)) : UINT64_MAX;
   Pacer pacer(board.f_cpu_hz * options.speed, options.clock_ppm, kMaxCatchupNs);
+  avr.set_pacer(&pacer);
   const uint64_t start_wall_ns = monotonic_ns();
   pacer.start(avr.cycle(), start_wall_ns);
   // Where the board's cycles stand on the machine's monotonic clock, so that the traces of
@@ -185,20 +190,13 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
     }
     avr.leave_bootloader_when_done();
     // Host bytes are stamped, when pacing, with the simulated time of their arrival on the wall
-    // clock (wall_ns, read microseconds before): the USB frame the real bridge would put them
-    // in; else with the simulation's now.
-    link.poll_rx(options.pacing ? host_arrival_ns(pacer, wall_ns) : link.now_ns());
+    // clock (read as they are): the USB frame the real bridge would put them in; else with the
+    // simulation's now. The adapter hands each to the UART on its bridge cycle, and ends a
+    // chunk early where the bridge passes the board's bytes to the host.
+    link.poll_rx(options.pacing ? host_arrival_ns(pacer, monotonic_ns()) : link.now_ns());
     avr.kick_rx();
     const uint64_t left_cycles = end_cycle - avr.cycle();
-    uint64_t stop_cycle = left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle;
-    // The bridge releasing a host byte, or passing the board's bytes to the host, within the
-    // chunk ends the chunk there: the next pass's kick_rx hands the byte to the UART on its
-    // cycle, and flush_tx writes the board's bytes to the pty at their time, not the chunk's end.
-    for (const uint64_t release_ns : {link.rx_next_ns(), link.tx_next_ns()}) {
-      if (release_ns == UINT64_MAX || release_ns <= link.now_ns()) continue;
-      const uint64_t release_cycle = pacer.cycle_at_sim_ns(release_ns);
-      if (release_cycle > avr.cycle() && release_cycle < stop_cycle) stop_cycle = release_cycle;
-    }
+    const uint64_t stop_cycle = left_cycles > chunk_cycles ? avr.cycle() + chunk_cycles : end_cycle;
     result.state = avr.run_until(stop_cycle);
     link.set_now_ns(pacer.sim_ns(avr.cycle()));
     const size_t passed = link.flush_tx();

@@ -132,14 +132,14 @@ void PtyLink::poll_rx(uint64_t arrival_ns) {
 // Takes the next received byte.
 uint8_t PtyLink::rx_pop() { return bridge_.board_byte_pop(); }
 
-// Queues one byte the AVR sent; drops it when the queue is full (the loop flushes every chunk,
-// so the queue only fills when nobody reads the pty).
-void PtyLink::tx_push(uint8_t byte) {
+// Queues one byte the AVR sent at host time now_ns; drops it when the queue is full (the loop
+// flushes every chunk, so the queue only fills when nobody reads the pty).
+void PtyLink::tx_push(uint8_t byte, uint64_t now_ns) {
   if (tx_queue_.size() + bridge_.board_bytes_waiting() >= kTxQueueMax) {
     ++tx_dropped_;
     return;
   }
-  bridge_.from_board(byte, now_ns_);
+  bridge_.from_board(byte, now_ns);
 }
 
 // Writes the bytes the bridge has passed by now to the host, as far as the pty accepts them.

@@ -16,8 +16,8 @@ namespace vboard {
 // bytes end its sleep. A slave fd stays open here so the pty does not hang up when the host
 // closes it. Bytes for a host that does not read are buffered up to a limit, then dropped and
 // counted. Between the pty and the board's UART sits a USB bridge model (usb_bridge.h; ideal
-// unless set_bridge gives another), on host time that the loop sets with set_now_ns before each
-// chunk of simulation (so its times hold to a chunk, 20 us).
+// unless set_bridge gives another), on host time: the loop's set_now_ns between chunks for what
+// the loop does (poll_rx, flush_tx), each byte's own cycle for what the UART does (AvrAdapter).
 class PtyLink {
  public:
   PtyLink() = default;
@@ -54,16 +54,14 @@ class PtyLink {
   // while it sleeps; -1 while the receive queue is full (poll_rx leaves the bytes unread then,
   // so the fd would end every wait at once).
   int rx_wake_fd() const { return bridge_.host_bytes_waiting() < kRxQueueMax ? master_fd_ : -1; }
-  // True when received bytes have reached the AVR's UART.
-  bool rx_pending() const { return bridge_.board_byte_ready(now_ns_); }
-  // Takes the next received byte (rx_pending() must be true).
+  // Takes the next received byte (its bridge time, rx_next_ns, has come).
   uint8_t rx_pop();
   // Host time (ns) at which the next received byte reaches the UART; UINT64_MAX when none waits.
   uint64_t rx_next_ns() const { return bridge_.next_board_byte_ns(); }
   // Host time (ns) at which the bridge next passes the board's bytes on; UINT64_MAX when none wait.
   uint64_t tx_next_ns() const { return bridge_.next_host_pass_ns(); }
-  // Queues one byte the AVR sent.
-  void tx_push(uint8_t byte);
+  // Queues one byte the AVR sent at host time now_ns.
+  void tx_push(uint8_t byte, uint64_t now_ns);
   // Writes the bytes the bridge has passed to the host by now as far as the pty accepts them;
   // returns how many the bridge passed in this call.
   size_t flush_tx();

@@ -94,6 +94,16 @@ void UsbBridge::to_host(uint64_t now_ns, std::vector<uint8_t> &out) {
   }
 }
 
+uint64_t UsbBridge::next_host_pass_ns() const {
+  if (!released_.empty()) return 0;
+  if (from_board_.empty()) return UINT64_MAX;
+  // The first timer expiry after the oldest held byte came (to_host moves next_flush_ns_ on
+  // only when it is called).
+  const uint64_t came = from_board_.front().at_ns;
+  if (next_flush_ns_ > came) return next_flush_ns_;
+  return next_flush_ns_ + ((came - next_flush_ns_) / timing_.flush_period_ns + 1) * timing_.flush_period_ns;
+}
+
 void UsbBridge::release_before(uint64_t t_ns, std::vector<uint8_t> &out) {
   while (!from_board_.empty() && from_board_.front().at_ns < t_ns) {
     out.push_back(from_board_.front().byte);

@@ -66,9 +66,9 @@ class UsbBridge {
   void to_host(uint64_t now_ns, std::vector<uint8_t> &out);
   // Board bytes the bridge still holds.
   size_t board_bytes_waiting() const { return from_board_.size(); }
-  // When the bridge next passes held board bytes to the host (ns, host time); UINT64_MAX when it
-  // holds none.
-  uint64_t next_host_pass_ns() const { return from_board_.empty() ? UINT64_MAX : next_flush_ns_; }
+  // When the bridge next passes board bytes to the host (ns, host time): 0 when some are passed
+  // already (a full packet, or no batching), UINT64_MAX when it holds none.
+  uint64_t next_host_pass_ns() const;
 
   LinkModel model() const { return model_; }
   const BridgeTiming &timing() const { return timing_; }

@@ -60,6 +60,26 @@ TEST_CASE("usb bridge: a host write reaches the board at the next 1 ms frame") {
   CHECK(b.board_byte_ready(3 * kMs + 300000));
 }
 
+TEST_CASE("usb bridge: each model says when it next passes board bytes to the host") {
+  UsbBridge ideal = make(LinkModel::kIdeal);
+  CHECK(ideal.next_host_pass_ns() == UINT64_MAX);
+  ideal.from_board(0x11, 7000);
+  CHECK(ideal.next_host_pass_ns() == 0);  // passed already: the loop writes it at once
+  std::vector<uint8_t> out;
+  ideal.to_host(7000, out);
+  CHECK(ideal.next_host_pass_ns() == UINT64_MAX);
+  UsbBridge u = make(LinkModel::k16u2, 0, 1000000);
+  CHECK(u.next_host_pass_ns() == UINT64_MAX);
+  u.from_board(0x22, 1200000);
+  CHECK(u.next_host_pass_ns() == 5096000);  // the next Timer0 overflow
+  u.to_host(3000000, out);                  // a look in between passes nothing
+  CHECK(u.next_host_pass_ns() == 5096000);
+  u.to_host(5096000, out);
+  CHECK(u.next_host_pass_ns() == UINT64_MAX);
+  for (int i = 0; i < 97; ++i) u.from_board(uint8_t(i), 6000000);  // more than 96 wait: at once
+  CHECK(u.next_host_pass_ns() == 0);
+}
+
 TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows") {
   UsbBridge b = make(LinkModel::k16u2, 0, 1000000);
   // Overflows at 1.0, 5.096, 9.192 ms ...: a byte sent at 1.2 ms waits for 5.096 ms.
