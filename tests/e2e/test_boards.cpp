@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <memory>
@@ -61,6 +62,53 @@ std::string write_eight_voices(const std::string &name) {
                                                static_cast<std::streamsize>(bytes.size()));
   return path;
 }
+
+// Two boards the host has met before: ids first_id and first_id + 1 (as the firmware reports
+// them: 01000000000000xx) in their EEPROM files, each with a crystal error of 0 in the host's
+// memory (XDG_CACHE_HOME, which the children read, set while this lives).
+struct KnownBoards {
+  std::string eeprom_a, eeprom_b;
+  KnownBoards(const std::string &name, uint8_t first_id)
+      : eeprom_a(e2e::scratch(name + "-a.eeprom")), eeprom_b(e2e::scratch(name + "-b.eeprom")) {
+    const std::string cache = e2e::scratch(name + "-cache");
+    ::mkdir(cache.c_str(), 0700);
+    ::mkdir((cache + "/stepchoir").c_str(), 0700);
+    std::ofstream memory(cache + "/stepchoir/boards.toml");
+    for (int k = 0; k < 2; ++k) {
+      const uint8_t id = static_cast<uint8_t>(first_id + k);
+      std::string bytes("\x00\x00\x00\x00\x00\x00\x00\x01", 8);
+      bytes[0] = static_cast<char>(id);
+      std::ofstream(k ? eeprom_b : eeprom_a, std::ios::binary) << bytes;
+      char key[32];
+      std::snprintf(key, sizeof key, "01000000000000%02x", id);
+      memory << "[boards." << key << "]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
+    }
+    ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);
+  }
+  ~KnownBoards() { ::unsetenv("XDG_CACHE_HOME"); }
+};
+
+// Those two boards as virtual Unos: A traced from the start, B on a fixed link so that it can be
+// powered off and back on (power_cycle_b: half a second off, then traced to trace_b).
+struct LosableBoards : KnownBoards {
+  std::string trace_a, trace_b, link_b;
+  VboardProcess a;
+  std::unique_ptr<VboardProcess> b;
+  LosableBoards(const std::string &name, uint8_t first_id)
+      : KnownBoards(name, first_id),
+        trace_a(e2e::scratch(name + "-a.csv")),
+        trace_b(e2e::scratch(name + "-b-after.csv")),
+        link_b(e2e::scratch(name + "-b.pty")),
+        a({"--board", "uno", "--eeprom", eeprom_a, "--trace", trace_a, "--quiet", "--no-measure"}),
+        b(std::make_unique<VboardProcess>(
+            std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b, "--quiet", "--no-measure"})) {}
+  void power_cycle_b() {
+    b.reset();
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    b = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b,
+                                                                 "--trace", trace_b, "--quiet", "--no-measure"});
+  }
+};
 
 // Plan motors 0-3 are board A's, 4-7 board B's: board's notes from from_s on, its motors
 // numbered from 0, in onset order.
@@ -188,26 +236,10 @@ TEST_CASE("render: one song on an Uno and a Mega, one WAV and one piano roll of 
 
 TEST_CASE("play: a board lost mid-song on two boards - the other plays on, and it rejoins when it is back",
           "[play][pacing]") {
-  // Two boards the host has met before (ids in their EEPROMs, crystals in its memory): each
-  // syncs in a second, so the loss falls into the song.
-  const std::string cache = e2e::scratch("lost-cache"), eeprom_a = e2e::scratch("lost-a.eeprom"),
-                    eeprom_b = e2e::scratch("lost-b.eeprom");
-  std::ofstream(eeprom_a, std::ios::binary) << std::string("\x0a\x00\x00\x00\x00\x00\x00\x01", 8);
-  std::ofstream(eeprom_b, std::ios::binary) << std::string("\x0b\x00\x00\x00\x00\x00\x00\x01", 8);
-  ::mkdir(cache.c_str(), 0700);
-  ::mkdir((cache + "/stepchoir").c_str(), 0700);
-  std::ofstream(cache + "/stepchoir/boards.toml")
-      << "[boards.010000000000000a]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n"
-      << "[boards.010000000000000b]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
-  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);  // the player reads it
-  struct Restore {
-    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
-  } restore;
-  const std::string trace_a = e2e::scratch("lost-a.csv"), trace_b = e2e::scratch("lost-b-after.csv");
-  const std::string link_b = e2e::scratch("lost-b.pty");
-  VboardProcess a({"--board", "uno", "--eeprom", eeprom_a, "--trace", trace_a, "--quiet", "--no-measure"});
-  auto b = std::make_unique<VboardProcess>(
-      std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b, "--quiet", "--no-measure"});
+  // Two boards the host has met before: each syncs in a second, so the loss falls into the song.
+  LosableBoards boards("lost", 0x0a);
+  VboardProcess &a = boards.a;
+  const std::string &trace_a = boards.trace_a, &trace_b = boards.trace_b, &link_b = boards.link_b;
   const std::string song = write_eight_voices("lost.mid");  // 8 s, at half tempo 16 s
   ChildProcess play({STEPCHOIR_BIN, "play", song, "--tempo", "0.5", "--port", a.pty(), "--port", link_b, "--quiet"},
                     true);
@@ -215,13 +247,10 @@ TEST_CASE("play: a board lost mid-song on two boards - the other plays on, and i
   // the host asks), a second of sync, the lead, then three seconds into the song: board B goes
   // away (power off) for half a second and comes back.
   std::this_thread::sleep_for(std::chrono::milliseconds(8500));
-  b.reset();
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  b = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b,
-                                                               "--trace", trace_b, "--quiet", "--no-measure"});
+  boards.power_cycle_b();
   const std::string out = play.read_rest(60000);
   const int status = play.wait();
-  b->stop();
+  boards.b->stop();
   REQUIRE(a.stop() == 0);
   INFO(out);
   REQUIRE(status == 0);
@@ -344,4 +373,68 @@ TEST_CASE("play: a board lost during its first clock sync is opened again and pl
   // Every note of the song on the board that came back, on time and in tune.
   const tr::Trace t = tr::read_trace(trace2);
   check_song("play, a board lost in its first sync", t, plan_for(song, size_t(t.motors), 1.0, {1, 2}));
+}
+
+TEST_CASE("jam: a board lost mid-song on two boards - the song plays on, and the song and the keyboard find it "
+          "again",
+          "[play][jam][pacing]") {
+  // Two boards the host has met before, so that each syncs in a second (as in the play case).
+  JackServer jack(1024);
+  Sender keys;
+  LosableBoards boards("jam-lost", 0x0c);
+  VboardProcess &a = boards.a;
+  const std::string &trace_a = boards.trace_a, &trace_b = boards.trace_b, &link_b = boards.link_b;
+  const std::string song = write_eight_voices("jam-lost.mid");  // 8 s, at half tempo 16 s
+  // Voices 1 and 2 on A's motor 0 and B's motor 0 (pool motors 0 and 4); the keyboard on the rest.
+  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--midi-api", "jack", "--midi",
+                    Sender::kPort, "--port", a.pty(), "--port", link_b, "--song-motors", "0,4", "--quiet"},
+                   true);
+  std::string said;
+  const std::string line = wait_for_line(jam, "jam: the song on motors", &said);
+  INFO(said);
+  REQUIRE(line.find("on motors 1,2,3,5,6,7") != std::string::npos);
+  // A second of sync, the lead, then under three seconds into the song: board B goes away
+  // (power off) for half a second and comes back; the live path greets it (2 s: the open does
+  // not reset it, so it asks) and its song player finds it by its restarted clock.
+  std::this_thread::sleep_for(std::chrono::milliseconds(4000));
+  boards.power_cycle_b();
+  // A five-note chord once B is back: three keys take A's free motors, two go to B's.
+  using Key = Sender::Key;
+  const std::vector<Key> script = {{5.0, 5.8, 60}, {5.0, 5.8, 64}, {5.0, 5.8, 67}, {5.0, 5.8, 72}, {5.0, 5.8, 76}};
+  keys.play(script);
+  const std::string out = jam.read_rest(60000);
+  const int status = jam.wait();
+  boards.b->stop();
+  REQUIRE(a.stop() == 0);
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("jam: " + link_b + ": link lost; reconnecting") != std::string::npos);
+  CHECK(out.find("jam: " + link_b + ": reconnected") != std::string::npos);
+  const size_t report_a = out.find(a.pty() + ": done"), report_b = out.find(link_b + ": done");
+  REQUIRE(report_a != std::string::npos);
+  REQUIRE(report_b != std::string::npos);
+  CHECK(out.find("reconnects 0", report_a) < out.find('\n', report_a));  // A's song played on
+  CHECK(out.find("reconnects 1", report_b) < out.find('\n', report_b));  // B's found it again
+
+  const Plan plan = plan_for(song, 2, 0.5, {1, 2});
+  REQUIRE(plan.unplayed.empty());
+  auto part = [&](int board) {
+    Plan p;
+    for (PlannedNote n : plan.notes)
+      if (n.motor == board) n.motor = 0, p.notes.push_back(n);
+    return p;
+  };
+  // A: every song note, on time and in tune, as if nothing had happened (jam keeps the rate it
+  // measured before the first note: check_song's fixed rate).
+  const tr::Trace ta = tr::read_trace(trace_a), tb = tr::read_trace(trace_b);
+  check_song("jam, lost board, A played on", ta, part(0), 0, true);
+  // B after it came back: its song notes of the last 8 s, on time against each other and in tune.
+  check_song("jam, lost board, B after it came back", tb, part(1), plan.duration_s - 8.0, true);
+  // The keyboard reached B again: two of the chord's keys on B's free motors, at their pitch.
+  int on_b = 0;
+  for (int m : {1, 2, 3})
+    for (const auto &seg : tr::segment_notes(tb.motor.at(size_t(m)).steps, tb.f_cpu_hz))
+      for (const Key &k : script)
+        if (std::fabs(seg.midi_note - k.note) < 0.01) ++on_b;
+  CHECK(on_b == 2);
 }

@@ -103,11 +103,16 @@ TEST_CASE("render: a sample song through the firmware as fast as it runs, to a W
   CHECK(c.max_cents < 0.05);
 }
 
-TEST_CASE("play: the board reset mid-song (virtual board restarted): the host reconnects and carries on",
+TEST_CASE("play: the board reset mid-song (virtual board restarted): the host reconnects, configures the rig "
+          "file's motors again and carries on",
           "[play][safety][pacing]") {
   const std::string song = write_test_song("play-reset.mid");
   const std::string link = scratch("play-reset.pty");
   const std::string trace2 = scratch("play-reset-after.csv");
+  // Motor 0 on a TB6600 (5 us pulses), from the file --config names: the restarted board has
+  // its 2 us default until the host configures it again.
+  const std::string rig = scratch("play-reset.toml");
+  std::ofstream(rig) << "[[boards]]\nport = \"" << link << "\"\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
   // A board the host has met before (its id in its EEPROM, its crystal in the host's memory),
   // so that its sync takes a second, whatever the link.
   const std::string eeprom = scratch("play-reset.eeprom"), cache = scratch("play-reset-cache");
@@ -123,7 +128,9 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   // (1.4 s) both times.
   auto vb = std::make_unique<VboardProcess>(
       std::vector<std::string>{"--board", "uno", "--auto-reset", "--eeprom", eeprom, "--link", link, "--quiet"});
-  ChildProcess play({STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--tempo", "0.5", "--port", link, "--quiet"}, true);
+  ChildProcess play(
+      {STEPCHOIR_BIN, "play", song, "--tracks", "1,2", "--tempo", "0.5", "--port", link, "--config", rig, "--quiet"},
+      true);
   // the bootloader, a second of sync, then into the song
   std::this_thread::sleep_for(std::chrono::milliseconds(3600));
   vb.reset();  // the board goes away (SIGTERM: power off) ...
@@ -155,6 +162,15 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   REQUIRE(std::count_if(checked.begin(), checked.end(),
                         [&](const auto &n) { return n.on_s >= from_s && n.after_silence == 1; }) >= 2);
   check_song("play, after the board came back", t, plan, from_s);
+  // The TB6600's pulse on the board that came back (its other motors keep the 2 us default,
+  // which the step ISR's lowering stretches to about 6 us: motor 0's must be longer still).
+  const auto width = sc::trace::min_pulse_width_cycles(t.motor[0].steps);
+  const auto other = sc::trace::min_pulse_width_cycles(t.motor[1].steps);
+  REQUIRE(width);
+  REQUIRE(other);
+  INFO("shortest pulse after the reset: motor 0 " << *width << " cycles, motor 1 " << *other);
+  CHECK(*width >= 5 * 16);  // 5 us at 16 MHz
+  CHECK(*width >= *other + 16);
 }
 
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {

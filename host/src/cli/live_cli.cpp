@@ -25,6 +25,7 @@
 #include "cli/console.h"
 #include "cli/console_model.h"
 #include "cli/learn_prompt.h"
+#include "cli/link_repair.h"
 #include "cli/setlist_runner.h"
 #include "config/config.h"
 #include "config/rig.h"
@@ -48,55 +49,6 @@ struct Say {
     std::fflush(stdout);
   }
 };
-
-// One board's way back after its link failed: the main loop parks the board's threads (the
-// old link may close only once they no longer touch it: a serial write can block for a
-// second), then reopens the port every 500 ms until a board with as many motors is greeted,
-// configures its motors again (the open reset it: it runs on defaults) and hands the session
-// the new link, which restores what should be sounding. One step a pass of the loop, so the
-// console keeps its keys meanwhile.
-struct LinkRepair {
-  enum class State : uint8_t { kUp, kParking, kReopening } state = State::kUp;
-  std::chrono::steady_clock::time_point next_try{};
-};
-
-// Called from: run_live's loop, every pass. True while board b is being reconnected.
-bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t motors, const BoardSettings *settings,
-                 std::vector<std::unique_ptr<Board>> &boards, LinkRepair &r, const Say &say, spdlog::logger &log) {
-  using State = LinkRepair::State;
-  const BoardStats &st = session.board_stats(b);
-  if (r.state == State::kUp) {
-    if (!st.write_failed.load() && !st.read_failed.load()) return false;
-    say(path + ": link lost; reconnecting");
-    r.state = State::kParking;
-  }
-  if (r.state == State::kParking) {
-    if (!session.detach_link(b)) {
-      log.warn("{}: the board's threads are still using the lost link; waiting", path);
-      return true;
-    }
-    boards[b].reset();
-    r.state = State::kReopening;
-  }
-  const auto now = std::chrono::steady_clock::now();
-  if (now < r.next_try) return true;
-  try {
-    auto board = std::make_unique<Board>(open_link(path));
-    const Caps caps = board->greet(Board::kBootWaitMs, 600);
-    if (caps.motor_count != motors)
-      throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
-    if (settings) configure_motors(*board, caps, *settings, path);
-    session.attach_link(b, &board->link());
-    boards[b] = std::move(board);
-    r.state = State::kUp;
-    say(path + ": reconnected");
-    return false;
-  } catch (const std::exception &e) {
-    log.debug("{}: {}", path, e.what());
-    r.next_try = now + std::chrono::milliseconds(500);
-    return true;
-  }
-}
 
 // Called from: run_live's loop, once a second. When the MIDI input went away: closes it,
 // releases every note (reset-all-controllers and all-sound-off on every channel: no note-off
@@ -221,6 +173,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     }
   }
   const Say say{console.get(), tty && !o.quiet && !console};
+  const auto note = [&log](const std::string &line) { log->debug("{}", line); };  // repair_link's detail
   if (setlist) setlist->set_say([&say](const std::string &line) { say(line); });
   ConsoleSources sources;
   sources.board_names = ports;
@@ -250,7 +203,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     for (size_t b = 0; b < session.board_count(); ++b) {
       errors += session.board_stats(b).board_errors.load();
       sources.reconnecting[b] = repair_link(session, b, ports[b], pool[b].motor_count, board_settings(rig, ports[b], b),
-                                            boards, repairs[b], say, *log);
+                                            boards, repairs[b], say, note);
     }
     if (errors != errors_logged) {
       log->warn("the boards reported {} errors (latest: {})", errors,

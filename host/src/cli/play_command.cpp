@@ -21,6 +21,7 @@
 #include "board/vboard_child.h"
 #include "cli/jam_console.h"
 #include "cli/jam_link.h"
+#include "cli/link_repair.h"
 #include "cli/plan_options.h"
 #include "cli/play_console.h"
 #include "cli/play_report.h"
@@ -353,7 +354,22 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (!timelines.empty()) po.song_clock = timelines[b].get();
       LinkOpener opener;
       const std::string path = boards[b].path;
-      if (!jamming) opener = [path] { return open_link(path); };  // jam: the live path reconnects
+      // A board back after a loss or a reset has its power-up defaults: the rig file's motors
+      // are configured again before the song goes on (a TB6600's pulse, travel, soft limits).
+      // Jam: the live path reopens the port and configures the board (the link keeper, below);
+      // the song finds it again through the session once it is there.
+      const BoardSettings *settings = boards[b].settings;
+      if (!jamming && settings)
+        po.on_reopen = [settings, path](Board &board, const Caps &caps) { configure_motors(board, caps, *settings, path); };
+      if (!jamming) {
+        opener = [path] { return open_link(path); };
+      } else {
+        po.open_resets = false;
+        opener = [s = session.get(), b, path]() -> std::unique_ptr<Link> {
+          if (!s->link_attached(b)) throw std::runtime_error("the live path is reconnecting it");
+          return std::make_unique<JamLink>(*s, b, path);
+        };
+      }
       std::unique_ptr<Board> board = std::move(boards[b].board);
       if (jamming) {
         song_board_for_jam.push_back(std::move(board));
@@ -406,6 +422,16 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (keys && keys->poll()) stop = true;
       if (show) print_progress(p);
     };
+    // Jam: a board whose link fails is reopened by the live path (as live does), its motors
+    // configured again; its song player finds it by its restarted clock.
+    std::unique_ptr<LinkKeeper> keeper;
+    if (jamming) {
+      std::vector<LinkKeeper::Port> ports;
+      for (const BoardRun &r : boards) ports.push_back({r.path, r.caps.motor_count, r.settings});
+      keeper = std::make_unique<LinkKeeper>(*session, ports, song_board_for_jam, [&console, cmd](const std::string &line) {
+        if (!console) say_line(cmd + ": " + line);
+      });
+    }
     ok[0] = players[0]->run(stop, g_pause, [&](const PlayerProgress &p) { on_main(p, 0); });
     if (play_console) play_console->ended(0, ok[0]);
     gate.leave(0);
@@ -425,6 +451,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       on_main(p, board);
     }
     for (std::thread &t : others) t.join();
+    keeper.reset();
     console.reset();  // the terminal as it was, before the reports
     play_console.reset();
     if (show) std::fprintf(stderr, "\n");

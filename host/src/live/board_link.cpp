@@ -246,6 +246,13 @@ void BoardLink::writer_loop() {
     }
     const uint32_t detached = detach_gen_.load(std::memory_order_acquire);
     if (detached != attach_gen_.load(std::memory_order_acquire)) {  // no link: collect only
+      // The song player's frames were for the board that went away (its clock, its queue):
+      // dropped, as sent into the void, so that its writes go on (jam: the song plays on and
+      // finds the board again by its restarted clock).
+      for (; song_.peek(); song_.pop()) {
+        song_written_us_.store(0, std::memory_order_relaxed);  // when it left: unknown
+        song_written_.fetch_add(1, std::memory_order_release);
+      }
       writer_parked_gen_.store(detached, std::memory_order_release);
       parked = true;
       if (stopping) break;

@@ -147,7 +147,7 @@ class BoardLink {
   // Jam (see LiveSession::send_song_frame). Called from: the song player's thread.
   bool queue_song_frame(const uint8_t *wire, size_t n);
   // When the writer handed the last queued song frame to the OS (monotonic_us), once it has,
-  // waiting up to timeout_ms; 0 on timeout.
+  // waiting up to timeout_ms; 0 on timeout, or when the frame was dropped (no link).
   uint64_t song_frame_written_us(int timeout_ms);
   long read_replies(uint8_t *out, size_t len, int timeout_ms);
   // Called from: setup code, before start(): the reader keeps the board's bytes for
@@ -156,9 +156,10 @@ class BoardLink {
   // Bit m: the board's motor m plays a song (live's setlist) and the live path leaves it alone:
   // post() drops its updates and the writer's refresh skips it. Called from: the main thread.
   void set_song_motors(uint8_t mask) noexcept { song_motors_.store(mask, std::memory_order_release); }
+  // True while the board has a link (attached, not detached since). Called from: any thread.
+  bool attached() const noexcept;
 
  private:
-  bool attached() const noexcept;
   bool try_send_now(const MotorUpdate &u);                          // engine thread
   void writer_loop();                                               // writer thread
   void reader_loop();                                               // reader thread

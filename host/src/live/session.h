@@ -124,6 +124,8 @@ class LiveSession {
   // Called from: the main thread.
   bool detach_link(size_t board, int timeout_ms = 3000);
   void attach_link(size_t board, Link *link);
+  // True while board b has a link (attached, not detached since). Called from: any thread.
+  bool link_attached(size_t b) const { return boards_.at(b)->attached(); }
 
   // Jam: the song player's side of board b's link. send_song_frame queues one wire frame
   // that the writer sends when no live update waits and the link budget has room to spare

@@ -62,6 +62,9 @@ struct PlayerOptions {
   double a4_hz = kA4Hz;
   bool auto_tune = true;         // periods from the measured clock rate (else F_CPU)
   double reconnect_s = 30;       // a lost board is retried this long (0: give up at once)
+  bool open_resets = true;       // the opener's open resets the board (a port): reopen waits out
+                                 // its bootloader (Board::greet); jam: false, the live path
+                                 // reopened the port and waited: reopen asks (Board::hello)
   std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
   bool exclusive = true;         // the board is the song's alone (jam: false, see silence())
   // The board's crystal error and its standard error (ppm) as remembered from an earlier song
@@ -72,6 +75,10 @@ struct PlayerOptions {
   // with the host time (us), and again every millisecond while it returns 0; then it returns
   // the host time that every board takes for the song's start. Empty: this board alone.
   std::function<uint64_t(uint64_t now_us)> start_gate;
+  // Called from: reopen, on the board greeted again after a loss or a reset, before the song
+  // goes on: what the caller set up on it before the first note (the rig file's motor
+  // configuration), which a restarted board has forgotten. Throws when the board refuses it.
+  std::function<void(Board &, const Caps &)> on_reopen;
   // Not null: the song follows this clock (it starts, stops and continues it; no loop, no
   // pause, the timeline's own rate unused). Owned by the caller, who keeps it alive.
   SongClock *song_clock = nullptr;

@@ -166,7 +166,8 @@ bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> 
 
 // Called from: run when the board was lost (link failed) or restarted (its clock began
 // again), before the song (its first sync) or during it. Opens it again (retrying up to
-// reconnect_s) and says hello; the clock fit starts again, the rate measured so far its prior.
+// reconnect_s), says hello and sets the board up again (on_reopen); the clock fit starts again,
+// the rate measured so far its prior.
 // False when the board does not come back.
 bool Player::reopen(const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
@@ -177,9 +178,10 @@ bool Player::reopen(const std::atomic<bool> &stop) {
         if (!opener_) throw std::runtime_error("cannot be opened again");
         board_ = std::make_unique<Board>(opener_());
       }
-      const Caps caps = board_lost_ ? board_->greet() : board_->hello();
+      const Caps caps = board_lost_ && opt_.open_resets ? board_->greet() : board_->hello();
       if (caps.motor_count != caps_.motor_count || caps.f_cpu_hz != caps_.f_cpu_hz)
         throw std::runtime_error("a different board answered");
+      if (opt_.on_reopen) opt_.on_reopen(*board_, caps);
       break;
     } catch (const std::exception &e) {
       stats_.reconnecting = true;
