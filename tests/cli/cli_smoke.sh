@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # cli_smoke.sh: the `stepchoir` command against the real firmware on the virtual board:
 # hello prints the board's capabilities, tone plays the asked frequency, status and panic answer,
-# driver puts a driver to sleep and resets it through the pins a configuration file names.
+# driver puts a driver to sleep and resets it through the pins a configuration file names,
+# config --check names a bad file's first mistake by line and column.
 # Usage: cli_smoke.sh BIN_DIR SCRATCH_DIR
 set -euo pipefail
 bin=$1
@@ -43,6 +44,20 @@ grep -q "refused sleep: config (no SLEEP or RESET pin" "$dir/err.txt"
 printf '[[boards]]\nport = "%s"\n[[boards.motors]]\nsleep_pin = 14\nreset_pin = 15\n' "$link" > "$dir/rig.toml"
 "$bin/stepchoir" driver --port "$link" --config "$dir/rig.toml" --motor 0 sleep | grep -q "motor 0's driver asleep"
 "$bin/stepchoir" driver --port "$link" --config "$dir/rig.toml" --motor 0 reset | grep -q "motor 0's driver reset"
+
+# config --check: the file above is good; a wrong value and a broken string each name their
+# line and column.
+"$bin/stepchoir" config --check "$dir/rig.toml" | grep -q "rig.toml: ok (1 boards)"
+printf '[[boards]]\nport = "x"\n[[boards.motors]]\ndriver = "tb6601"\n' > "$dir/bad.toml"
+if "$bin/stepchoir" config --check "$dir/bad.toml" 2>"$dir/err.txt"; then
+  echo "config --check of a wrong driver should fail"; exit 1
+fi
+grep -q "bad.toml:4:10: driver 'tb6601': expected a4988, drv8825 or tb6600" "$dir/err.txt"
+printf '[[boards]]\nport = "x\n' > "$dir/bad.toml"
+if "$bin/stepchoir" config --check "$dir/bad.toml" 2>"$dir/err.txt"; then
+  echo "config --check of a broken string should fail"; exit 1
+fi
+grep -q "bad.toml:2:10: " "$dir/err.txt"
 
 kill -TERM $vboard
 wait $vboard

@@ -61,6 +61,10 @@ struct Bounds {
   bool early_onsets;
 };
 
+// How far a note's end may move from its planned end (us): a step in the timeline as the clock
+// fit refines would open a gap in the legato line, or run one note into the next.
+constexpr double kLegatoUs = 250.0;
+
 // A 12 s song on a board met for the first time, its crystal ppm off, over `link`, checked in
 // real time from the trace against `b`. (Not check_song's 0.5 cent from the first note: the
 // rate is still being measured then.)
@@ -91,9 +95,13 @@ void check_refined(const std::string &link, const std::string &ppm, const Bounds
   CHECK(late.found == late.notes);
   CHECK(pct(late.onset_err_us, 0.99) < 500.0);
   CHECK(late.max_cents < b.late_cents);
+  CHECK(late.max_release_early_us < kLegatoUs);
+  CHECK(late.max_release_late_us < kLegatoUs);
   INFO(early.first_problem);
   CHECK(early.found == early.notes);
   CHECK(early.max_cents < b.early_cents);
+  CHECK(early.max_release_early_us < kLegatoUs);
+  CHECK(early.max_release_late_us < kLegatoUs);
   CHECK(std::fabs(early.tempo_ppm) < b.early_tempo_ppm);
   if (b.early_onsets) CHECK(pct(early.onset_err_us, 0.99) < 500.0);
 }
@@ -179,6 +187,13 @@ void check_remembered(const std::string &link, const std::string &ppm) {
     CHECK(c.max_cents < 0.5);
     CHECK(std::fabs(c.tempo_ppm) < 100.0);
     CHECK(pct(c.onset_err_us, 0.99) < 500.0);
+    // The legato line keeps its joins: no step in the timeline as the fit refines.
+    CHECK(c.max_release_early_us < kLegatoUs);
+    CHECK(c.max_release_late_us < kLegatoUs);
+    const sc::trace::ScoreCheck late = check_played(t, plan, 10.0);
+    print_figures(("clock, " + link + " link, crystal " + ppm + " ppm, a board met before, from 10 s").c_str(), late);
+    CHECK(late.found == late.notes);
+    CHECK(late.max_cents < 0.1);
   }
 }
 

@@ -161,6 +161,36 @@ TEST_CASE("jog: the move follows the Torricelli ramp, v^2 = v0^2 + 2as, up, at s
   CHECK(worst < 0.08);  // (the speed of a step lags by one where the main loop was late)
 }
 
+TEST_CASE("jog by millimetres and turns, then center: the board counts the carriage from the middle declared",
+          "[play][pacing]") {
+  const std::string trace_path = scratch("center.csv");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  // 80 steps/mm, 400 steps a turn.
+  const std::string config = motion_config("center", vb.pty(), "steps_per_mm = 80.0\nsteps_per_turn = 400.0\n");
+  const auto run = [&](std::vector<std::string> args) {
+    int status = -1;
+    args.insert(args.end(), {"--port", vb.pty(), "--config", config});
+    if (args.front() != "status") args.insert(args.end(), {"--motor", "2"});
+    const std::string out = run_stepchoir(args, &status);
+    INFO(out);
+    CHECK(status == 0);
+    return out;
+  };
+  // From the rail's middle (the firmware's count starts there): 10 mm up, a turn back.
+  CHECK(run({"jog", "--mm", "10"}).find("moved 800 steps (10.0 mm), position 2400") != std::string::npos);
+  CHECK(run({"jog", "--turns", "-1"}).find("moved 400 steps (5.0 mm), position 2000") != std::string::npos);
+  // The user sees the carriage 400 steps off the middle, and declares it the middle anyway.
+  CHECK(run({"center"}).find("motor 2: the carriage is the middle of its rail, position 1600") != std::string::npos);
+  CHECK(run({"status"}).find("motor 2: position 1600 ") != std::string::npos);
+  // The board now counts from there: 5 mm down ends at 1200, where it counted 1600 before.
+  CHECK(run({"jog", "--mm", "-5"}).find("moved 400 steps (5.0 mm), position 1200") != std::string::npos);
+  REQUIRE(vb.stop() == 0);
+  // The carriage itself (the virtual board's rail): 800 up, 400 and 400 back, 800 steps all.
+  const tr::Trace t = tr::read_trace(trace_path);
+  CHECK(t.motor[2].steps.size() == 1600u);
+  CHECK(final_position(t, 2, kTravel / 2) == kTravel / 2);
+}
+
 TEST_CASE("home_on_start: play homes the switched carriages, then plays the song", "[play][pacing]") {
   const std::string trace_path = scratch("home-play.csv");
   VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--start-position", "0"});
