@@ -197,7 +197,7 @@ int main(int argc, char **argv) {
          "clock just before it hands the note to JACK to the board's first STEP edge, the trace laid on the same "
          "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames, "
       << period_us << " us at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
-         "none; 16u2: the next 1 ms USB frame), the wire (above) and the firmware (frame's last byte -> first STEP "
+         "the virtual board's lead on the wall clock only; 16u2: the next 1 ms USB frame), the wire (above) and the firmware (frame's last byte -> first STEP "
          "edge, measured in bench/results/onset-latency.md), each measured per note in the table below. A note-on on a DIN MIDI cable takes 960 us (3 bytes at "
          "31,250 baud).\n\n"
       << "Events that never reached the callback were lost inside JACK (its xruns on a loaded "

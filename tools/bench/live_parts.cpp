@@ -84,7 +84,7 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
       {"host", "callback -> write() on the link returned", [](const NoteParts &p) { return p.host; },
        "none (the live path's own work)"},
       {"link", "write returned -> the frame's first byte at the board's UART", [](const NoteParts &p) { return p.link; },
-       link_model == "ideal" ? "none on a native UART; here the virtual board's lead on the wall clock, up to 0.2 ms "
+       link_model == "ideal" ? "none on a native UART; here the virtual board's lead on the wall clock "
                                "(docs/decisions/020-vboard-pacing-catch-up.md)"
                              : "the next 1 ms USB frame, then the virtual board's lead where the frame starts inside it"},
       {"wire", "first byte -> last byte at the UART", [](const NoteParts &p) { return p.wire; },

@@ -145,7 +145,7 @@ int main(int argc, char **argv) {
                "the stalled host included; the first seconds carry the rate the clock fit had after its sync, refined "
                "as the song goes on. `ctest -R \"play:\"` checks the same on a test song (onsets 99 %% within 0.5 ms "
                "behind a bridge) and fails a run in which the virtual board slipped.\n",
-               date, table.c_str(), std::ceil(worst_p99_us), worst_cents);
+               date, table.c_str(), std::ceil(worst_p99_us), std::ceil(worst_cents * 100) / 100);
   std::fclose(f);
   std::printf("wrote %s\n", path.c_str());
   return 0;
