@@ -141,6 +141,27 @@ inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
               c.tempo_ppm, c.max_cents, c.max_spread_cents, c.max_release_late_us, c.max_release_early_us);
 }
 
+// Motor tb's steps came with a TB6600's 5 us pulses and motor other's with the 2 us default.
+// The step ISR lowers STEP at its first pass after the pulse's end, so a pulse measures more
+// than its setting, by up to a pass: a default one about 6 us, a 5 us one mostly 7.6 us but
+// now and then under 6. Hence the 5 us floor on every pulse, and the medians a microsecond
+// apart at least.
+inline void check_tb6600_pulses(const sc::trace::Trace &t, size_t tb, size_t other) {
+  auto widths = [&](size_t m) {
+    std::vector<double> w;
+    for (const sc::trace::Step &s : t.motor.at(m).steps) w.push_back(s.width_cycles);
+    return w;
+  };
+  const std::vector<double> w_tb = widths(tb), w_other = widths(other);
+  REQUIRE_FALSE(w_tb.empty());
+  REQUIRE_FALSE(w_other.empty());
+  const double floor = t.f_cpu_hz * 5e-6, us = t.f_cpu_hz * 1e-6;
+  INFO("pulses (cycles): motor " << tb << " shortest " << *std::min_element(w_tb.begin(), w_tb.end()) << " median "
+                                 << pct(w_tb, 0.5) << ", motor " << other << " median " << pct(w_other, 0.5));
+  CHECK(*std::min_element(w_tb.begin(), w_tb.end()) >= floor);
+  CHECK(pct(w_tb, 0.5) >= pct(w_other, 0.5) + us);
+}
+
 // True when the board ran behind a USB bridge's model (its summary names the link model).
 inline bool behind_bridge(const sc::trace::Trace &t) {
   for (const std::string &line : t.summary_lines)

@@ -1,6 +1,6 @@
-// test_clock.cpp: `stepchoir play` on a virtual board whose crystal is off, end to end: the
-// host's clock fit measures the board's rate through the link (ideal, or a USB bridge's model)
-// and keeps refining it while the song plays, and every note is checked in real time in the
+// test_clock.cpp: `stepchoir play` (and `jam`) on a virtual board whose crystal is off, end to
+// end: the host's clock fit measures the board's rate through the link (ideal, or a USB
+// bridge's model) and keeps refining it while the song plays, and every note is checked in real time in the
 // trace (the trace's cycles divided by the simulated crystal's real rate). A board met before
 // (its id in its EEPROM, its crystal in the host's memory) is in tune from its first note.
 #include <catch2/catch.hpp>
@@ -8,11 +8,14 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include <sys/stat.h>
 
 #include "e2e_util.h"
+#include "jack_rig.h"
 #include "play_checks.h"
 #include "smf_builder.h"
 #include "trace.h"
@@ -68,14 +71,23 @@ constexpr double kLegatoUs = 250.0;
 // A 12 s song on a board met for the first time, its crystal ppm off, over `link`, checked in
 // real time from the trace against `b`. (Not check_song's 0.5 cent from the first note: the
 // rate is still being measured then.)
-void check_refined(const std::string &link, const std::string &ppm, const Bounds &b) {
-  const std::string name = "clock-" + link + ppm;
+// jam: the song through `stepchoir jam` on motors 0 and 1, a JACK keyboard (silent) on the
+// others.
+void check_refined(const std::string &link, const std::string &ppm, const Bounds &b, bool jam = false) {
+  const std::string name = std::string(jam ? "clock-jam-" : "clock-") + link + ppm;
   const std::string song = write_long_song(name + ".mid", 12);
   const std::string trace_path = scratch(name + ".csv");
+  std::vector<std::string> args = {jam ? "jam" : "play", song, "--tracks", "1,2", "--vboard", "uno", "--vboard-link",
+                                   link, "--clock-ppm", ppm, "--vboard-trace", trace_path, "--quiet"};
+  std::unique_ptr<JackServer> jack;
+  std::unique_ptr<Sender> keys;
+  if (jam) {
+    jack = std::make_unique<JackServer>(1024);
+    keys = std::make_unique<Sender>();
+    args.insert(args.end(), {"--midi-api", "jack", "--midi", Sender::kPort, "--song-motors", "0,1"});
+  }
   int status = -1;
-  const std::string out = run_stepchoir({"play", song, "--tracks", "1,2", "--vboard", "uno", "--vboard-link", link,
-                                         "--clock-ppm", ppm, "--vboard-trace", trace_path, "--quiet"},
-                                        &status);
+  const std::string out = run_stepchoir(args, &status);
   INFO(out);
   REQUIRE(status == 0);
   const auto t = sc::trace::read_trace(trace_path);
@@ -84,9 +96,9 @@ void check_refined(const std::string &link, const std::string &ppm, const Bounds
   bool on_link = false;  // the board's summary names the link model it ran
   for (const std::string &line : t.summary_lines) on_link |= line.find(" link_model=" + link + " ") != std::string::npos;
   REQUIRE(on_link);
-  const Plan plan = plan_for(song, static_cast<size_t>(t.motors), 1.0, {1, 2});
+  const Plan plan = plan_for(song, jam ? 2 : static_cast<size_t>(t.motors), 1.0, {1, 2});
   REQUIRE(plan.notes.size() == 48 + 12);
-  const std::string what = "clock, " + link + " link, crystal " + ppm + " ppm";
+  const std::string what = std::string(jam ? "clock, jam, " : "clock, ") + link + " link, crystal " + ppm + " ppm";
   const sc::trace::ScoreCheck early = check_played(t, plan, 2.0);
   print_figures((what + ", from 2 s").c_str(), early);
   const sc::trace::ScoreCheck late = check_played(t, plan, 10.0);
@@ -124,6 +136,14 @@ TEST_CASE("clock: a crystal 0.5 % fast behind a 16U2 bridge - in tune from 2 s, 
 TEST_CASE("clock: a crystal 0.5 % slow behind an FTDI bridge - in tune from 2 s, within 0.1 cent after 10 s (auto-tune)",
           "[play][clock][pacing]") {
   check_refined("ftdi", "-5000", {0.5, 100.0, 0.1, true});
+}
+
+// jam: the song shares the board with the live path, its clock requests sent by the live
+// writer, and keeps refining the board's rate as play does.
+TEST_CASE("clock: jam with a crystal 0.5 % fast behind a 16U2 bridge - the song in tune from 2 s, within 0.1 cent "
+          "after 10 s",
+          "[play][jam][clock][pacing]") {
+  check_refined("16u2", "5000", {0.5, 100.0, 0.1, true}, true);
 }
 
 TEST_CASE("play: without auto-tune the same crystal plays 8.6 cents off (the check can fail)", "[play][pacing]") {

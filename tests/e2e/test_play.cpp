@@ -162,15 +162,8 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   REQUIRE(std::count_if(checked.begin(), checked.end(),
                         [&](const auto &n) { return n.on_s >= from_s && n.after_silence == 1; }) >= 2);
   check_song("play, after the board came back", t, plan, from_s);
-  // The TB6600's pulse on the board that came back (its other motors keep the 2 us default,
-  // which the step ISR's lowering stretches to about 6 us: motor 0's must be longer still).
-  const auto width = sc::trace::min_pulse_width_cycles(t.motor[0].steps);
-  const auto other = sc::trace::min_pulse_width_cycles(t.motor[1].steps);
-  REQUIRE(width);
-  REQUIRE(other);
-  INFO("shortest pulse after the reset: motor 0 " << *width << " cycles, motor 1 " << *other);
-  CHECK(*width >= 5 * 16);  // 5 us at 16 MHz
-  CHECK(*width >= *other + 16);
+  // The TB6600's pulse on the board that came back (its other motors keep the default).
+  check_tb6600_pulses(t, 0, 1);
 }
 
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {

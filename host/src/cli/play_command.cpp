@@ -134,6 +134,8 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
   c->jam->add_option("--port,-p", c->ports, "Board (repeat for several: their motors form one pool); none: the "
                                            "configuration's boards, else the virtual board, in real time");
   c->jam->add_option("--vboard-trace", c->vboard_trace, "Without --port: the virtual board's trace (CSV)");
+  c->jam->add_option("--clock-ppm", c->clock_ppm, "Without --port: the virtual board's crystal error")
+      ->check(CLI::Range(-20000.0, 20000.0));
   c->jam->add_option("--lead-ms", c->lead_ms, "Send each song note this long before it plays")
       ->check(CLI::Range(20.0, 5000.0))
       ->default_str(std::to_string(int(PlayCommand::kLeadMs)) + ", " + std::to_string(int(PlayCommand::kClockLeadMs)) +
