@@ -62,10 +62,6 @@ void UsbBridge::from_host(const uint8_t *bytes, size_t count, uint64_t now_ns) {
   for (size_t i = 0; i < count; ++i) to_board_.push_back({at, bytes[i]});
 }
 
-bool UsbBridge::board_byte_ready(uint64_t now_ns) const {
-  return !to_board_.empty() && to_board_.front().at_ns <= now_ns;
-}
-
 uint8_t UsbBridge::board_byte_pop() {
   const uint8_t byte = to_board_.front().byte;
   to_board_.pop_front();

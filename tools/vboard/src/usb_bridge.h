@@ -50,12 +50,13 @@ class UsbBridge {
 
   // Called from: the pty loop. Bytes the host wrote, read at host time now_ns.
   void from_host(const uint8_t *bytes, size_t count, uint64_t now_ns);
-  // Called from: the UART bridge. True when a host byte has reached the board by now_ns.
-  bool board_byte_ready(uint64_t now_ns) const;
-  // Takes that byte (board_byte_ready must be true).
-  uint8_t board_byte_pop();
-  // When the next host byte reaches the board (ns, host time); UINT64_MAX when none waits.
+  // Called from: the UART bridge (AvrAdapter: the cycle it hands the byte to the UART). When
+  // the next host byte reaches the board (ns, host time); UINT64_MAX when none waits.
   uint64_t next_board_byte_ns() const { return to_board_.empty() ? UINT64_MAX : to_board_.front().at_ns; }
+  // True when a host byte has reached the board by now_ns.
+  bool board_byte_ready(uint64_t now_ns) const { return next_board_byte_ns() <= now_ns; }
+  // Takes that byte (its time has come).
+  uint8_t board_byte_pop();
   // Host bytes not yet taken by the board (released or not).
   size_t host_bytes_waiting() const { return to_board_.size(); }
 
