@@ -1,10 +1,11 @@
 // test_boards.cpp: one song across two boards. Two virtual boards whose crystals are 2,000 ppm
 // fast and 1,500 ppm slow, each behind a 16U2 bridge model, play one song through `stepchoir
-// play --port A --port B`: their motors form one pool, each board's clock is synced on its own,
-// and the notes of both line up in real time (the traces laid on the machine's monotonic clock).
-// `stepchoir render --vboard uno,mega` writes one WAV and one piano roll of both boards' motors.
-// A board lost mid-song: the other plays on, and it rejoins when it is back. `stepchoir jam` on
-// two boards: the song on a motor of each, a JACK keyboard on the others of both.
+// play` and a rig file naming both: their motors form one pool, each board's clock is synced on
+// its own, and the notes of both line up in real time (the traces laid on the machine's
+// monotonic clock). `stepchoir render` of a rig file with an Uno and a Mega writes one WAV and
+// one piano roll of both boards' motors, each with the file's settings. A board lost mid-song:
+// the other plays on, and it rejoins when it is back. `stepchoir jam` on two boards, from its rig
+// file: the song on a motor of each, a JACK keyboard on the others of both.
 #include <catch2/catch.hpp>
 
 #include <sys/resource.h>
@@ -23,6 +24,7 @@
 
 #include "analysis.h"
 #include "board/child_process.h"
+#include "config/rig.h"
 #include "core/midi_event.h"
 #include "jack_rig.h"
 #include "merge.h"
@@ -110,13 +112,13 @@ struct LosableBoards : KnownBoards {
   }
 };
 
-// Plan motors 0-3 are board A's, 4-7 board B's: board's notes from from_s on, its motors
-// numbered from 0, in onset order.
-std::vector<tr::ScoreNote> board_score(const Plan &plan, int board, double from_s = 0) {
+// Plan motors from first_b on are board B's, those below it board A's: board's notes from
+// from_s on, its motors numbered from 0, in onset order.
+std::vector<tr::ScoreNote> board_score(const Plan &plan, int board, double from_s = 0, uint8_t first_b = 4) {
   Plan part;
   for (PlannedNote n : plan.notes)
-    if ((n.motor >= 4) == (board == 1)) {
-      n.motor = static_cast<uint8_t>(n.motor % 4);
+    if ((n.motor >= first_b) == (board == 1)) {
+      n.motor = static_cast<uint8_t>(board ? n.motor - first_b : n.motor);
       part.notes.push_back(n);
     }
   std::vector<tr::ScoreNote> score = score_of(part);
@@ -125,32 +127,13 @@ std::vector<tr::ScoreNote> board_score(const Plan &plan, int board, double from_
   return score;
 }
 
-}  // namespace
-
-TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 bridges) lines up in real time",
-          "[play][pacing]") {
-  const std::string trace_a = e2e::scratch("boards-a.csv"), trace_b = e2e::scratch("boards-b.csv");
-  VboardProcess a({"--board", "uno", "--trace", trace_a, "--quiet", "--no-measure", "--clock-ppm", "2000",
-                   "--link-model", "16u2", "--seed", "1"});
-  VboardProcess b({"--board", "uno", "--trace", trace_b, "--quiet", "--no-measure", "--clock-ppm", "-1500",
-                   "--link-model", "16u2", "--seed", "2"});
-  // Two simulations and the host on two cores: the boards, which stand in for hardware with its
-  // own clock, go first, so that a busy machine delays the host (which the boards' queues
-  // absorb) rather than the boards' time (root only; elsewhere the test runs as it is).
-  setpriority(PRIO_PROCESS, static_cast<id_t>(a.pid()), -10);
-  setpriority(PRIO_PROCESS, static_cast<id_t>(b.pid()), -10);
-  const std::string song = write_eight_voices("boards.mid");
-  int status = -1;
-  const std::string out = run_stepchoir({"play", song, "--port", a.pty(), "--port", b.pty(), "--quiet"}, &status);
-  INFO(out);
-  REQUIRE(status == 0);
-  CHECK(out.find("on 8 motors") != std::string::npos);
-  CHECK(out.find(a.pty() + ": done") != std::string::npos);
-  CHECK(out.find(b.pty() + ": done") != std::string::npos);
-  REQUIRE(a.stop() == 0);
-  REQUIRE(b.stop() == 0);
-
-  const tr::Trace ta = tr::read_trace(trace_a), tb = tr::read_trace(trace_b);
+// The notes of two boards on the machine's monotonic clock (each trace laid by its wall start):
+// each note's onset less its song time. Issue 23's targets: the boards' mean onsets within
+// 0.5 ms of each other, onsets p99 within 1 ms of one line (figures:
+// bench/results/multi-board.md). score_a, score_b: each board's notes, its motors numbered from
+// 0, in onset order; every one must be found in its trace.
+void check_lined_up(const std::string &what, const tr::Trace &ta, const tr::Trace &tb,
+                    const std::vector<tr::ScoreNote> &score_a, const std::vector<tr::ScoreNote> &score_b) {
   REQUIRE(ta.has_wall_start);
   REQUIRE(tb.has_wall_start);
   // Laying a trace on the monotonic clock holds only while its board kept real time; a board
@@ -160,18 +143,12 @@ TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 brid
                                    "on this run measures the machine");
   REQUIRE(tr::pacing_slipped_us(ta) == 0);
   REQUIRE(tr::pacing_slipped_us(tb) == 0);
-
-  const Plan plan = plan_for(song, 8);
-  REQUIRE(plan.unplayed.empty());
-  // Each board's notes, its motors numbered from 0, in onset order; then each note's onset on
-  // the monotonic clock less its song time.
   std::vector<double> offset_s[2];
   for (int board = 0; board < 2; ++board) {
-    const std::vector<tr::ScoreNote> score = board_score(plan, board);
-    REQUIRE(score.size() >= 4 * 16);
+    const std::vector<tr::ScoreNote> &score = board ? score_b : score_a;
     const tr::Trace &t = board ? tb : ta;
     const tr::ScoreCheck c = tr::check_score(t, score);
-    print_figures(board ? "two boards, B (-1500 ppm)" : "two boards, A (+2000 ppm)", c);
+    print_figures((what + (board ? ", B" : ", A")).c_str(), c);
     INFO(c.first_problem);
     REQUIRE(c.found == c.notes);
     for (size_t i = 0; i < score.size(); ++i) {
@@ -192,19 +169,61 @@ TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 brid
   for (double x : all) off_us.push_back(std::fabs(x - line) * 1e6);
   std::sort(off_us.begin(), off_us.end());
   const double p99 = off_us[static_cast<size_t>(0.99 * static_cast<double>(off_us.size() - 1))];
-  std::printf("two boards: mean onsets %+.1f us apart; onsets p99 %.1f us, max %.1f us off one line\n",
+  std::printf("%s: mean onsets %+.1f us apart; onsets p99 %.1f us, max %.1f us off one line\n", what.c_str(),
               (mean_a - mean_b) * 1e6, p99, off_us.back());
-  // Issue 23's targets: the boards' mean onsets within 0.5 ms of each other, onsets p99 within
-  // 1 ms of one line (figures: bench/results/multi-board.md).
   CHECK(std::fabs(mean_a - mean_b) <= 0.5e-3);
   CHECK(p99 <= 1e3);
 }
 
-TEST_CASE("render: one song on an Uno and a Mega, one WAV and one piano roll of all nine motors", "[play][pacing]") {
+}  // namespace
+
+TEST_CASE("play: one song on two boards (crystals +2000 and -1500 ppm, 16U2 bridges) lines up in real time",
+          "[play][pacing]") {
+  const std::string trace_a = e2e::scratch("boards-a.csv"), trace_b = e2e::scratch("boards-b.csv");
+  VboardProcess a({"--board", "uno", "--trace", trace_a, "--quiet", "--no-measure", "--clock-ppm", "2000",
+                   "--link-model", "16u2", "--seed", "1"});
+  VboardProcess b({"--board", "uno", "--trace", trace_b, "--quiet", "--no-measure", "--clock-ppm", "-1500",
+                   "--link-model", "16u2", "--seed", "2"});
+  // Two simulations and the host on two cores: the boards, which stand in for hardware with its
+  // own clock, go first, so that a busy machine delays the host (which the boards' queues
+  // absorb) rather than the boards' time (root only; elsewhere the test runs as it is).
+  setpriority(PRIO_PROCESS, static_cast<id_t>(a.pid()), -10);
+  setpriority(PRIO_PROCESS, static_cast<id_t>(b.pid()), -10);
+  const std::string song = write_eight_voices("boards.mid");
+  // The boards from the rig file (no --port): both form the pool.
+  const std::string config = e2e::scratch("boards.toml");
+  std::ofstream(config) << "[[boards]]\nport = \"" << a.pty() << "\"\n[[boards]]\nport = \"" << b.pty() << "\"\n";
+  int status = -1;
+  const std::string out = run_stepchoir({"play", song, "--config", config, "--quiet"}, &status);
+  INFO(out);
+  REQUIRE(status == 0);
+  CHECK(out.find("on 8 motors") != std::string::npos);
+  CHECK(out.find(a.pty() + ": done") != std::string::npos);
+  CHECK(out.find(b.pty() + ": done") != std::string::npos);
+  REQUIRE(a.stop() == 0);
+  REQUIRE(b.stop() == 0);
+
+  const tr::Trace ta = tr::read_trace(trace_a), tb = tr::read_trace(trace_b);
+  const Plan plan = plan_for(song, 8);
+  REQUIRE(plan.unplayed.empty());
+  const std::vector<tr::ScoreNote> score_a = board_score(plan, 0), score_b = board_score(plan, 1);
+  REQUIRE(score_a.size() >= 4 * 16);
+  REQUIRE(score_b.size() >= 4 * 16);
+  check_lined_up("two boards", ta, tb, score_a, score_b);
+}
+
+TEST_CASE("render: a rig file's Uno and Mega, one WAV and one piano roll of all nine motors, each motor with "
+          "the file's settings",
+          "[play][pacing]") {
   const std::string path = std::string(STEPCHOIR_SONGS_DIR) + "/band-blues.mid";
   const std::string trace = e2e::scratch("render-two.csv"), wav = e2e::scratch("render-two.wav");
+  // Two boards without ports: render simulates each as the file says; the Mega's motor 0 (pool
+  // motor 4) an octave up.
+  const std::string config = e2e::scratch("render-two.toml");
+  std::ofstream(config) << "[[boards]]\nboard = \"uno\"\n[[boards]]\nboard = \"mega\"\n"
+                        << "[[boards.motors]]\ntranspose = 12\n";
   int status = -1;
-  const std::string out = run_stepchoir({"render", path, "--tempo", "2", "--vboard", "uno,mega", "--trace", trace, "-o",
+  const std::string out = run_stepchoir({"render", path, "--tempo", "2", "--config", config, "--trace", trace, "-o",
                                          wav, "--png", e2e::scratch("render-two.png")},
                                         &status);
   INFO(out);
@@ -217,8 +236,16 @@ TEST_CASE("render: one song on an Uno and a Mega, one WAV and one piano roll of 
   REQUIRE(mega.motors == 5);
   PlanOptions o;
   o.tempo_scale = 2;
-  o.motors.assign(9, MotorConfig{});
+  const Rig rig = load_rig(config);
+  o.motors = motor_music(board_settings(rig, "", 0), uno.f_cpu_hz, {0, 1, 2, 3});
+  for (const MotorConfig &m : motor_music(board_settings(rig, "", 1), mega.f_cpu_hz, {0, 1, 2, 3, 4}))
+    o.motors.push_back(m);
+  REQUIRE(o.motors.size() == 9);
+  REQUIRE(o.motors[4].transpose == 12);
   const Plan plan = plan_song(read_song_file(path), o);
+  size_t on_motor4 = 0;
+  for (const PlannedNote &n : plan.notes) on_motor4 += n.motor == 4;
+  REQUIRE(on_motor4 > 0);  // the transposed motor plays: check_song below holds it an octave up
   // The boards' traces on one line, each placed by its first note: every planned note of both
   // on time (board time: the render runs each board on its nominal clock) and in tune.
   double first[2] = {-1, -1};
@@ -321,14 +348,18 @@ TEST_CASE("jam: a board lost mid-song on two boards - the song plays on, and the
   VboardProcess &a = boards.a;
   const std::string &trace_a = boards.trace_a, &trace_b = boards.trace_b, &link_b = boards.link_b;
   const std::string song = write_eight_voices("jam-lost.mid");  // 8 s, at half tempo 16 s
-  // Voices 1 and 2 on A's motor 0 and B's motor 0 (pool motors 0 and 4); the keyboard on the rest.
-  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--midi-api", "jack", "--midi",
-                    Sender::kPort, "--port", a.pty(), "--port", link_b, "--song-motors", "0,4", "--quiet"},
+  // The keyboard and both boards from the rig file. Voices 1 and 2 on A's motor 0 and B's motor
+  // 0 (pool motors 0 and 4); the keyboard on the rest.
+  const std::string config = e2e::scratch("jam-lost.toml");
+  std::ofstream(config) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+                        << "[[boards]]\nport = \"" << a.pty() << "\"\n[[boards]]\nport = \"" << link_b << "\"\n";
+  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--config", config,
+                    "--song-motors", "0,4", "--quiet"},
                    true);
   std::string said;
   const std::string line = wait_for_line(jam, "jam: the song on motors", &said);
   INFO(said);
-  REQUIRE(line.find("on motors 1,2,3,5,6,7") != std::string::npos);
+  REQUIRE(line.find("(jack) on motors 1,2,3,5,6,7") != std::string::npos);
   // A second of sync, the lead, then under three seconds into the song: board B goes away
   // (power off) for half a second and comes back; the live path greets it (2 s: the open does
   // not reset it, so it asks) and its song player finds it by its restarted clock.
@@ -366,6 +397,10 @@ TEST_CASE("jam: a board lost mid-song on two boards - the song plays on, and the
   check_song("jam, lost board, A played on", ta, part(0), 0, true);
   // B after it came back: its song notes of the last 8 s, on time against each other and in tune.
   check_song("jam, lost board, B after it came back", tb, part(1), plan.duration_s - 8.0, true);
+  // ... and B's song notes of those 8 s line up in real time with all of A's, as play's do (A's
+  // whole song: its last 8 s repeat its first 8, which a score of those alone could match).
+  check_lined_up("jam, two boards, B's last 8 s", ta, tb, board_score(plan, 0, 0, 1),
+                 board_score(plan, 1, plan.duration_s - 8.0, 1));
   // The keyboard, one pool of both boards' free motors: each key on one of them at its pitch,
   // about as long as held; three on A's and two on B's, which the live path reached again.
   struct Played {

@@ -324,7 +324,7 @@ TEST_CASE("driver: uno refuses bad driver settings with config, length or motor 
   }
   CHECK(codes == want);
   REQUIRE(status);
-  CHECK(status->head.frames_bad - before->head.frames_bad == bad.size() + 3);
+  CHECK(status->head.frames_bad - before->head.frames_bad == static_cast<int>(bad.size()) + 3);
   CHECK(status->motors[0].flags & sc::kMotorSounding);  // still playing after the refusals
   // one note, every step on its grid: no gap, no hiccup while the frames were refused
   const auto &s = t.motor[0].steps;

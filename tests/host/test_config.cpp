@@ -85,6 +85,7 @@ TEST_CASE("config: motion keys, a turn's steps from the microsteps, and their mi
   CHECK(error_of(motor + "min_speed = 50.0\nmax_speed = 10.0\n") == "f.toml:3:13: min_speed must not be above max_speed");
   CHECK(error_of(motor + "acceleration = 0.0\n") == "f.toml:3:16: acceleration: must be 1 to 100000");
   CHECK(error_of("home_on_start = 1\n") == "f.toml:1:17: home_on_start: expected true or false");
+  CHECK(error_of("[[boards]]\nboard = \"nano\"\n") == "f.toml:2:9: board 'nano': expected uno or mega");
 }
 
 TEST_CASE("config: every key is read", "[config]") {

@@ -108,6 +108,16 @@ TEST_CASE("rig: a port gets its own [[boards]] entry, else the entry in its plac
   CHECK(board_settings(Rig{}, "/dev/A", 0) == nullptr);
 }
 
+TEST_CASE("rig: without a port the virtual boards are --vboard's, else the file's boards', else one Uno",
+          "[config]") {
+  Rig rig;
+  rig.config = parse_config("[[boards]]\nboard = \"mega\"\n[[boards]]\n", "two.toml");
+  CHECK(rig_vboards(rig, {}) == std::vector<std::string>{"mega", "uno"});  // the second's default
+  CHECK(rig_vboards(rig, {"uno"}) == std::vector<std::string>{"uno"});     // the command line wins
+  CHECK(rig_vboards(Rig{}, {}) == std::vector<std::string>{"uno"});
+  CHECK(rig_port(rig, "").empty());  // no port in the file: the commands start its virtual boards
+}
+
 TEST_CASE("rig: the song's motors take their range, transpose, tuning and mutes from the file", "[config]") {
   const LiveConfig c = parse_config("[[boards]]\n"
                                     "[[boards.motors]]\nlowest_note = 40\nhighest_note = 80\n"

@@ -104,9 +104,10 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   std::unique_ptr<VirtualBoard> vboard;
   if (ports.empty()) {
     const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
-    vboard = std::make_unique<VirtualBoard>(o.vboard_board, link, o.vboard_trace, std::vector<std::string>{});
-    std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n",
-                o.vboard_board.c_str(), link.c_str());
+    const std::string kind = o.vboard_board.empty() ? rig_vboards(rig, {})[0] : o.vboard_board;
+    vboard = std::make_unique<VirtualBoard>(kind, link, o.vboard_trace, std::vector<std::string>{});
+    std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n", kind.c_str(),
+                link.c_str());
     ports.push_back(link);
   }
   std::vector<std::unique_ptr<Board>> boards;

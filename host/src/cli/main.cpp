@@ -204,8 +204,9 @@ int main(int argc, char **argv) {
   live->add_option("--policy", live_opt.policy, "Note allocation (default poly)")
       ->check(CLI::IsMember({"poly", "channel", "mono"}));
   live->add_option("--midi-api", live_opt.midi_api, "MIDI API (default alsa)")->check(CLI::IsMember({"alsa", "jack"}));
-  live->add_option("--vboard", live_opt.vboard_board, "Board the virtual board simulates (without --port)")
-      ->check(CLI::IsMember({"uno", "mega"}))->default_val(live_opt.vboard_board);
+  live->add_option("--vboard", live_opt.vboard_board,
+                   "Board the virtual board simulates (without --port; default: the rig file's first board's, else uno)")
+      ->check(CLI::IsMember({"uno", "mega"}));
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No console and no status line");

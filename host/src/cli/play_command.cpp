@@ -92,8 +92,9 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
     s->add_option("--min-note-ms", c->sel.min_note_ms, "Leave out notes shorter than this")
         ->check(CLI::Range(0.0, 1000.0))->default_val(c->sel.min_note_ms);
     s->add_option("--vboard", c->vboards,
-                  "Board the virtual board simulates (without --port); several (uno,mega): one song on all")
-        ->delimiter(',')->check(CLI::IsMember({"uno", "mega"}))->default_str("uno");
+                  "Board the virtual board simulates (without --port); several (uno,mega): one song on all "
+                  "(default: the rig file's boards, else uno)")
+        ->delimiter(',')->check(CLI::IsMember({"uno", "mega"}));
     s->add_option("--vboard-link", c->vboard_link,
                   "The virtual board's USB bridge (default 16u2, the Uno's and Mega's; docs/usb-bridges.md)")
         ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
@@ -121,12 +122,14 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
       ->check(CLI::Range(1, 32));
   c->jam = app.add_subcommand("jam", "Play a song on some motors and a MIDI keyboard on the others");
   selection(c->jam);
-  c->jam->add_option("--midi", c->midi, "MIDI input: index, part of its name, or virtual[:NAME]")->default_val(c->midi);
-  c->jam->add_option("--midi-api", c->midi_api, "MIDI API")->check(CLI::IsMember({"alsa", "jack"}))->default_val(c->midi_api);
+  c->jam->add_option("--midi", c->midi,
+                     "MIDI input: index, part of its name, or virtual[:NAME] (default: the rig file's, else virtual)");
+  c->jam->add_option("--midi-api", c->midi_api, "MIDI API (default: the rig file's, else alsa)")
+      ->check(CLI::IsMember({"alsa", "jack"}));
   c->jam->add_flag("--midi-clock", c->midi_clock,
                    "The song follows the MIDI input's clock: its tempo, Start, Stop, Continue and song position");
-  c->jam->add_option("--policy", c->policy, "Note allocation for the keyboard")
-      ->check(CLI::IsMember({"poly", "channel", "mono"}))->default_val(c->policy);
+  c->jam->add_option("--policy", c->policy, "Note allocation for the keyboard (default: the rig file's, else poly)")
+      ->check(CLI::IsMember({"poly", "channel", "mono"}));
   c->jam->add_option("--song-motors", c->song_motors,
                      "The motors that play the song, numbered across the boards in their order (the keyboard plays "
                      "the rest)")
@@ -158,6 +161,9 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
   const std::string cmd = rendering ? "render" : jamming ? "jam" : "play";
   try {
     const Rig rig = load_rig(config);
+    // jam's keyboard: the command line's, else the rig file's [midi] table (its policy below).
+    const std::string midi_selector = midi.empty() ? rig.config.midi_input : midi;
+    const std::string api_name = midi_api.empty() ? rig.config.midi_api : midi_api;
     const Song song = read_song_file(this->song, tab_options(sel.tab));
     for (const std::string &w : song.warnings) std::fprintf(stderr, "%s: warning: %s\n", cmd.c_str(), w.c_str());
     if (dry_run_motors > 0) {
@@ -181,8 +187,9 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     if (paths.empty() && !rendering)
       for (const BoardSettings &b : rig.config.boards)
         if (!b.port.empty()) paths.push_back(b.port);
-    // Without a board: the virtual boards of --vboard (several: one song on all), each with its
-    // trace (the first at the path given, the others beside it: T-2.csv, ...).
+    // Without a board: the virtual boards of --vboard, else of the rig file's boards (several:
+    // one song on all), each with its trace (the first at the path given, the others beside it:
+    // T-2.csv, ...).
     std::vector<std::unique_ptr<VirtualBoard>> vbs;
     std::vector<std::string> traces;
     if (paths.empty()) {
@@ -196,6 +203,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (rendering) extra.insert(extra.end(), {"--speed", std::to_string(kRenderSpeed)});
       if (clock_ppm != 0) extra.insert(extra.end(), {"--clock-ppm", std::to_string(clock_ppm)});
       if (!vboard_link.empty()) extra.insert(extra.end(), {"--link-model", vboard_link});
+      const std::vector<std::string> vboards = rig_vboards(rig, this->vboards);
       for (size_t k = 0; k < vboards.size(); ++k) {
         const std::string n = k ? "-" + std::to_string(k + 1) : "";
         const std::string link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + n + ".pty";
@@ -288,7 +296,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       std::vector<LiveBoard> lbs;
       for (const BoardRun &r : boards)
         lbs.push_back(LiveBoard{&r.board->link(), static_cast<uint8_t>(r.live_ids.size()), r.caps.f_cpu_hz, r.live_ids});
-      AllocatorConfig alloc = pool_config(lbs, parse_policy(policy));
+      AllocatorConfig alloc = pool_config(lbs, policy.empty() ? rig.config.policy : parse_policy(policy));
       for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].live_ids.size(), ++b) {
         const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, boards[b].caps.f_cpu_hz, boards[b].live_ids);
         std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
@@ -297,7 +305,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       console_sources.music = alloc;
       session = std::make_unique<LiveSession>(lbs, alloc);
       for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
-      midi_in = std::make_unique<MidiIn>(parse_midi_api(midi_api), midi, session->midi_queue());
+      midi_in = std::make_unique<MidiIn>(parse_midi_api(api_name), midi_selector, session->midi_queue());
       for (size_t b = 0; midi_clock && b < boards.size(); ++b) {
         clock_queues.push_back(std::make_unique<ClockQueue>(4096));
         midi_in->route_clock(*clock_queues.back());
@@ -315,7 +323,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         console_sources.board_names.push_back(boards[b].path);
       }
       std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
-                  midi_in->port_name().c_str(), midi_api.c_str(), ids_live.c_str());
+                  midi_in->port_name().c_str(), api_name.c_str(), ids_live.c_str());
       if (midi_clock && midi_in->clock_delay_us())
         std::printf("jam: the song follows the MIDI clock (its ticks taken as sent %.2f ms before they come: half "
                     "JACK's period): waiting for Start\n", midi_in->clock_delay_us() / 1e3);

@@ -32,7 +32,7 @@ struct PlayCommand {
   SongSelection sel;
   // play
   std::vector<std::string> ports;  // boards (none: the rig's, else the virtual board)
-  std::vector<std::string> vboards{"uno"};  // without ports: the virtual boards to start
+  std::vector<std::string> vboards;  // without ports: the virtual boards to start (rig_vboards)
   std::string vboard_trace, vboard_link;    // vboard_link: empty = its default
   double clock_ppm = 0, sync_s = 1.0;
   double lead_ms = 0;  // 0: kLeadMs, or kClockLeadMs following a MIDI clock
@@ -41,7 +41,8 @@ struct PlayCommand {
   // render
   std::string out_wav, out_png, keep_trace;
   // jam
-  std::string midi = "virtual", midi_api = "alsa", policy = "poly";
+  std::string midi, midi_api;  // "": the rig file's [midi] input and api (virtual, alsa)
+  std::string policy;           // "": the rig file's [allocation] policy (poly)
   std::vector<int> song_motors{0, 1};  // pool numbers: the boards' motors in board order
   bool midi_clock = false;             // the song follows the MIDI input's clock
   // A note goes to the board this long before it plays: room for the host's stalls. Following a

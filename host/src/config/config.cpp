@@ -169,9 +169,11 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
     for (const toml::node &b : *boards) {
       const toml::table *t = b.as_table();
       if (!t) fail(source, b, "boards: expected [[boards]] tables");
-      known_keys(source, *t, {"port", "motors"}, "[[boards]]");
+      known_keys(source, *t, {"port", "board", "motors"}, "[[boards]]");
       BoardSettings bs;
       bs.port = get_string(source, *t, "port", "");
+      bs.board = get_string(source, *t, "board", bs.board);
+      if (bs.board != "uno" && bs.board != "mega") fail(source, *t->get("board"), "board '" + bs.board + "': expected uno or mega");
       if (const toml::node *mn = t->get("motors")) {
         const toml::array *motors = mn->as_array();
         if (!motors) fail(source, *mn, "motors: expected [[boards.motors]] tables");
@@ -304,10 +306,11 @@ on = false
 
 
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
-# uses the first board's port; with no board and no --port, live, play and jam start the virtual
-# board, and take the first board's motors for it (render always does).
+# uses the file's ports; with no port in the file either, play and jam start a virtual board for
+# each [[boards]] table (render always does), live one for the first, each with its motors.
 # [[boards]]
 # port = "/dev/ttyACM0"
+# board = "uno"              # uno or mega: what its virtual board simulates (--vboard wins)
 #
 # One [[boards.motors]] table per motor of that board, motor 0 first. A listed motor is
 # configured on the board (the values below are the defaults); motors not listed keep the

@@ -43,6 +43,8 @@ struct MotorSettings {
 
 struct BoardSettings {
   std::string port;                   // serial port or link; "" = none given
+  std::string board = "uno";          // uno or mega: what the virtual board simulates for this
+                                      // entry (render; live, play and jam with no port at all)
   std::vector<MotorSettings> motors;  // in motor order; motors not listed keep their board's defaults
 };
 

@@ -49,6 +49,14 @@ std::string rig_port(const Rig &rig, const std::string &port) {
   return "";
 }
 
+std::vector<std::string> rig_vboards(const Rig &rig, const std::vector<std::string> &given) {
+  if (!given.empty()) return given;
+  std::vector<std::string> kinds;
+  for (const BoardSettings &b : rig.config.boards) kinds.push_back(b.board);
+  if (kinds.empty()) kinds.push_back("uno");
+  return kinds;
+}
+
 void configure_motors(Board &board, const Caps &caps, const BoardSettings &settings, const std::string &port) {
   for (size_t m = 0; m < settings.motors.size() && m < caps.motor_count; ++m) {
     board.send(config_payload(settings.motors[m].hardware));

@@ -48,6 +48,11 @@ const BoardSettings *board_settings(const Rig &rig, const std::string &port, siz
 // else "" (play, render and jam then start the virtual board). Called from: main, play.
 std::string rig_port(const Rig &rig, const std::string &port);
 
+// The boards the virtual boards simulate when a command has no port at all: `given` (--vboard)
+// if not empty, else each [[boards]] entry's board, else one Uno. Called from: play, render, jam,
+// live (which takes the first).
+std::vector<std::string> rig_vboards(const Rig &rig, const std::vector<std::string> &given);
+
 // Sends the configuration and the driver settings of every motor `settings` lists (up to the
 // board's motor count); throws naming the port, the motor and the board's error when it refuses
 // one. Called from: every command that plays notes, after hello, before the first note.
