@@ -68,12 +68,12 @@ Player::Player(std::unique_ptr<Board> board, const Caps &caps, std::vector<PlanE
 
 double Player::event_ticks(double score_s) const {
   if (opt_.song_clock) return std::max(sent_ticks_, sync_.ticks_at(opt_.song_clock->host_us(score_s)));
-  return anchor_ticks_ + (score_s - anchor_s_) * rate_;
+  return line_.ticks(score_s);
 }
 
 double Player::score_now(uint64_t now_us) const {
   if (opt_.song_clock) return opt_.song_clock->locked() ? opt_.song_clock->score_at(static_cast<double>(now_us)) : sent_score_;
-  return anchor_s_ + (sync_.ticks_at(static_cast<double>(now_us)) - anchor_ticks_) / rate_;
+  return line_.score(sync_.ticks_at(static_cast<double>(now_us)));
 }
 
 // Called from: run, each pass, with a song clock. A start (or continue) silences what the song
@@ -103,13 +103,13 @@ bool Player::follow_clock() {
 // now_us, at the fit's rate (nominal in board-time mode or without auto-tune; the rate
 // measured so far when the fit has none yet, as after a reconnect: the same crystal).
 void Player::anchor(double score_s, uint64_t now_us) {
+  double rate = line_.rate;
   if (opt_.board_time || !opt_.auto_tune)
-    rate_ = caps_.f_cpu_hz;
-  else if (sync_.has_rate() || rate_ == 0)
-    rate_ = sync_.ticks_per_s();
-  anchor_s_ = score_s;
-  anchor_ticks_ = sync_.ticks_at(static_cast<double>(now_us)) + opt_.lead_s * rate_;
-  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
+    rate = caps_.f_cpu_hz;
+  else if (sync_.has_rate() || rate == 0)
+    rate = sync_.ticks_per_s();
+  line_.start(score_s, sync_.ticks_at(static_cast<double>(now_us)) + opt_.lead_s * rate, rate);
+  stats_.rate_ppm = (rate / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
 // Called from: read_replies, after each clock sample. With auto-tune in real time, while the
@@ -120,20 +120,15 @@ void Player::anchor(double score_s, uint64_t now_us) {
 // reordered), and the notes not yet sent get their times and periods at the refined rate (a
 // held note keeps its period).
 void Player::follow_rate() {
-  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || opt_.song_clock || !sync_.has_rate() ||
-      sync_.rate_sigma_ppm() > kRateSigmaPpm)
-    return;
-  anchor_ticks_ = event_ticks(sent_score_);
-  anchor_s_ = sent_score_;
-  rate_ = sync_.ticks_per_s();
-  stats_.rate_ppm = (rate_ / caps_.f_cpu_hz - 1.0) * 1e6;
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || opt_.song_clock) return;
+  if (line_.follow(sent_score_, sync_)) stats_.rate_ppm = (line_.rate / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 
 // The period of a pitch on this board: from its measured clock rate (auto-tune), so the note
 // sounds right in real time even when its crystal is off.
 uint32_t Player::period_for(double pitch) const {
   const double hz = note_hz(pitch, opt_.a4_hz);
-  uint32_t period = hz_to_period_q8(hz, rate_);
+  uint32_t period = hz_to_period_q8(hz, line_.rate);
   if (period != sc::kPeriodSilent && period < sc::kPeriodQ8Min) period = sc::kPeriodQ8Min;
   return period;
 }

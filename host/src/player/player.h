@@ -36,6 +36,7 @@
 #include "live/session.h"
 #include "player/clock_sync.h"
 #include "player/plan.h"
+#include "player/timeline.h"
 
 namespace stepchoir {
 
@@ -151,7 +152,7 @@ class Player {
   // for the other boards (7 bytes each, under 1 % of the link).
   static constexpr uint64_t kSyncEveryUs = 10000;
   // The clock fit's rate is taken when its standard error is at most this (ppm; 0.05 cent).
-  static constexpr double kRateSigmaPpm = 30.0;
+  static constexpr double kRateSigmaPpm = Timeline::kRateSigmaPpm;
   // Playing on its own board, a status request this often (us): the console's carriages and
   // endstop hits.
   static constexpr uint64_t kStatusEveryUs = 250000;
@@ -189,9 +190,8 @@ class Player {
   double dither_ = 0;           // fraction of a USB frame added to the next request's time
   double line_free_us_ = 0;  // host time (us) the line to the board has carried what was written
   bool board_lost_ = false, board_restarted_ = false;
-  // Timeline (see the top): song time s (in loop k: k * duration + s) plays at board ticks
-  // anchor_ticks_ + (s - anchor_s_) * rate_.
-  double anchor_s_ = 0, anchor_ticks_ = 0, rate_ = 0;
+  // Song time s (in loop k: k * duration + s) -> board ticks (see the top; player/timeline.h).
+  Timeline line_;
   void anchor(double score_s, uint64_t now_us);  // sets the timeline: score_s one lead after now
   void follow_rate();                         // the timeline takes the fit's refined rate
   double sent_score_ = 0;   // song time of the last entry sent (the pivot for follow_rate)
