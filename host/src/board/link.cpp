@@ -100,7 +100,8 @@ class SerialLink : public Link {
     sp_set_stopbits(port_, 1);
     sp_set_flowcontrol(port_, SP_FLOWCONTROL_NONE);
     sp_flush(port_, SP_BUF_BOTH);  // bytes from before the open are stale (a reset board says hello anew)
-    set_low_latency();
+    int fd = -1;  // the driver's low-latency flag, where it has one
+    if (sp_get_port_handle(port_, &fd) == SP_OK && fd >= 0) set_low_latency(fd);
   }
   ~SerialLink() override {
     sp_close(port_);
@@ -126,17 +127,6 @@ class SerialLink : public Link {
 
  private:
   std::string path_;
-  // Asks the serial driver to pass received bytes on at once (ASYNC_LOW_LATENCY: an FTDI
-  // bridge's latency timer goes from 16 ms to 1 ms). Drivers without the flag refuse it,
-  // harmlessly.
-  void set_low_latency() {
-    int fd = -1;
-    if (sp_get_port_handle(port_, &fd) != SP_OK || fd < 0) return;
-    serial_struct serial{};
-    if (ioctl(fd, TIOCGSERIAL, &serial) != 0) return;
-    serial.flags |= ASYNC_LOW_LATENCY;
-    ioctl(fd, TIOCSSERIAL, &serial);
-  }
   sp_port *port_ = nullptr;
 };
 
@@ -148,6 +138,17 @@ bool is_pty(const std::string &path) {
 }
 
 }  // namespace
+
+bool set_low_latency(int fd) {
+  serial_struct serial{};
+  if (ioctl(fd, TIOCGSERIAL, &serial) != 0) return false;
+  if (!(serial.flags & ASYNC_LOW_LATENCY)) {
+    serial.flags |= ASYNC_LOW_LATENCY;
+    if (ioctl(fd, TIOCSSERIAL, &serial) != 0) return false;
+    if (ioctl(fd, TIOCGSERIAL, &serial) != 0) return false;
+  }
+  return (serial.flags & ASYNC_LOW_LATENCY) != 0;
+}
 
 std::unique_ptr<Link> open_link(const std::string &path) {
   if (is_pty(path)) return std::make_unique<TermiosLink>(path);

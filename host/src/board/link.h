@@ -39,6 +39,12 @@ class Link {
 // Throws std::runtime_error with the path and the reason.
 std::unique_ptr<Link> open_link(const std::string &path);
 
+// Asks the serial driver behind fd to pass received bytes on at once (ASYNC_LOW_LATENCY: an
+// FTDI bridge's latency timer goes from 16 ms to 1 ms). True when the driver has the flag
+// afterwards; false when it has no such flag (a pseudo-terminal, a driver without it), which is
+// harmless. Called from: open_link, on a serial port just opened.
+bool set_low_latency(int fd);
+
 // Serial ports libserialport can see, as "path  description".
 std::vector<std::string> list_serial_ports();
 
