@@ -175,12 +175,10 @@ inline bool behind_bridge(const sc::trace::Trace &t) {
 // first time gets its rate from a second of round trips through 1 ms USB frames and 4 ms
 // batches, and the refined rate that follows bends the line a little), every note within 0.5 cent
 // of its pitch in real time (the player refines the board's clock rate as the song goes on,
-// so notes are not all tuned alike: docs/decisions/023-player-follows-refined-clock.md). With
-// fixed_rate (jam: the rate measured before the first note stays), every note in tune with the
-// others within 0.05 cent instead.
+// so notes are not all tuned alike: docs/decisions/023-player-follows-refined-clock.md).
 // Returns the figures.
-inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace &t, const Plan &plan, double from_s = 0,
-                                        bool fixed_rate = false) {
+inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace &t, const Plan &plan,
+                                        double from_s = 0) {
   const sc::trace::ScoreCheck c = check_played(t, plan, from_s);
   print_figures(what, c);
   INFO(c.first_problem);
@@ -190,10 +188,7 @@ inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace
   // The worst onset: a note whose first edge meets a burst of the other motors' edges comes
   // late by the step ISR's edge timing (issue 2: up to ~90 us seen with four motors busy).
   CHECK(pct(c.onset_err_us, 1.0) < (bridge ? 1000.0 : 250.0));
-  if (fixed_rate)
-    CHECK(c.max_spread_cents < 0.05);
-  else
-    CHECK(c.max_cents < 0.5);
+  CHECK(c.max_cents < 0.5);
   return c;
 }
 

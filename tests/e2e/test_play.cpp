@@ -192,10 +192,9 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   // The song: every note of its plan on motors 0 and 1, on time and in tune, nothing else there.
   const Plan plan = plan_for(song, 2, 1.0, {1, 2});
   REQUIRE(plan.unplayed.empty());
-  // Jam keeps the rate it measured before the first note: its round trips pass through the
-  // live path's queue (notes in tune with one another; their absolute pitch is up to about
-  // 2 cents off on a busy run).
-  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan, 0, true);
+  // Jam follows the refined clock as play does (its round trips pass through the live path's
+  // queue, whose writer tells when each truly left): every note within 0.5 cent.
+  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan);
   CHECK(c.max_release_late_us < 100.0);
   // The keyboard: each key's note on motor 2 or 3 at its pitch, for about as long as it was held.
   std::vector<sc::trace::NoteSegment> live;

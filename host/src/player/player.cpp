@@ -114,13 +114,12 @@ void Player::anchor(double score_s, uint64_t now_us) {
 
 // Called from: read_replies, after each clock sample. With auto-tune in real time, while the
 // fit's rate is within kRateSigmaPpm (a wider one wanders by a few hundred ppm on a busy link;
-// the rate the timeline has stays meanwhile; and not in jam, whose fit early in a song moves
-// its notes apart by a third of a cent: decision 023), the timeline and the pitches take it
+// the rate the timeline has stays meanwhile: decision 023), the timeline and the pitches take it
 // from the last entry sent on: that entry keeps its board time (no step in song time, no entry
 // reordered), and the notes not yet sent get their times and periods at the refined rate (a
 // held note keeps its period).
 void Player::follow_rate() {
-  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.exclusive || opt_.song_clock) return;
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || opt_.song_clock) return;
   if (line_.follow(sent_score_, sync_)) stats_.rate_ppm = (line_.rate / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 

@@ -8,9 +8,10 @@
 // one another on the board's timer whatever the host or the link do, and the song runs at its
 // real tempo. The fit keeps refining the rate while the song plays (round trips through a USB
 // bridge are noisy: the first second's rate may be a hundred ppm or more off). While the
-// fit's rate is within 30 ppm the timeline follows it phase-continuously (not in jam): the
-// anchor moves to the last entry sent, which keeps its board time, so song time never steps,
-// and the notes not yet sent take the refined rate for their times and periods (follow_rate).
+// fit's rate is within 30 ppm the timeline follows it phase-continuously (player/timeline.h;
+// not under a song clock, whose timeline is the fit itself): the anchor moves to the last
+// entry sent, which keeps its board time, so song time never steps, and the notes not yet sent
+// take the refined rate for their times and periods (follow_rate).
 // A held note keeps its period. Each entry goes out lead_s before its time, as far as the
 // board's queue (Caps::queue_size entries) has room. The host's scheduling jitter only moves
 // when a frame is sent, never when a note starts. In board-time mode (render, a virtual board
