@@ -2,7 +2,8 @@
 # cli_smoke.sh: the `stepchoir` command against the real firmware on the virtual board:
 # hello prints the board's capabilities, tone plays the asked frequency, status and panic answer,
 # driver puts a driver to sleep and resets it through the pins a configuration file names,
-# config --check names a bad file's first mistake by line and column.
+# config --check names a bad file's first mistake by line and column (without a file: the one
+# commands read).
 # Usage: cli_smoke.sh BIN_DIR SCRATCH_DIR
 set -euo pipefail
 bin=$1
@@ -58,6 +59,14 @@ if "$bin/stepchoir" config --check "$dir/bad.toml" 2>"$dir/err.txt"; then
   echo "config --check of a broken string should fail"; exit 1
 fi
 grep -q "bad.toml:2:10: " "$dir/err.txt"
+# Without a file it checks the one commands read: the default location, or says there is none.
+mkdir -p "$dir/xdg/stepchoir"
+cp "$dir/rig.toml" "$dir/xdg/stepchoir/stepchoir.toml"
+XDG_CONFIG_HOME="$dir/xdg" "$bin/stepchoir" config --check | grep -q "xdg/stepchoir/stepchoir.toml: ok (1 boards)"
+if XDG_CONFIG_HOME="$dir/no-xdg" "$bin/stepchoir" config --check 2>"$dir/err.txt"; then
+  echo "config --check without a file anywhere should fail"; exit 1
+fi
+grep -q "no file given, and none at $dir/no-xdg/stepchoir/stepchoir.toml" "$dir/err.txt"
 
 kill -TERM $vboard
 wait $vboard

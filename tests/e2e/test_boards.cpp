@@ -393,9 +393,9 @@ TEST_CASE("jam: a board lost mid-song on two boards - the song plays on, and the
   };
   // A: every song note, on time and in tune, as if nothing had happened.
   const tr::Trace ta = tr::read_trace(trace_a), tb = tr::read_trace(trace_b);
-  check_song("jam, lost board, A played on", ta, part(0));
+  check_song("jam, lost board, A played on", ta, part(0), 0, PitchCheck::kSettled);
   // B after it came back: its song notes of the last 8 s, on time against each other and in tune.
-  check_song("jam, lost board, B after it came back", tb, part(1), plan.duration_s - 8.0);
+  check_song("jam, lost board, B after it came back", tb, part(1), plan.duration_s - 8.0, PitchCheck::kSettled);
   // ... and B's song notes of those 8 s line up in real time with all of A's, as play's do (A's
   // whole song: its last 8 s repeat its first 8, which a score of those alone could match).
   check_lined_up("jam, two boards, B's last 8 s", ta, tb, board_score(plan, 0, 0, 1),

@@ -3,8 +3,8 @@
 // firmware on the virtual board. The board's trace must show every note at its pitch on some
 // motor, started and released on time (chords, velocity-0 note-offs, sustain, bends); after
 // hundreds of random events nothing may sound; SIGTERM must silence a held note at once. Then:
-// board unplugged and back, keyboard unplugged and back, no --port (its own virtual board),
-// two boards in one pool, a configuration file.
+// board unplugged and back, keyboard unplugged and back, two boards in one pool. The rig
+// file's part: test_live_rig.cpp.
 #include <catch2/catch.hpp>
 
 #include <RtMidi.h>
@@ -28,22 +28,17 @@
 #include "core/midi_event.h"
 #include "e2e_util.h"
 #include "jack_rig.h"
+#include "live_checks.h"
 #include "trace.h"
 
 namespace tr = sc::trace;
 using stepchoir::MidiEvent;
+using namespace live_checks;
 
 namespace {
 
-// How far a note's start or end may sit from when it was sent: the JACK period (21 ms),
-// the path through the host and the line, and a loaded machine's scheduling.
-const double kTimeToleranceS = 0.045;
-// Pitch: a segment's mean interval against the note (semitones; 0.02 = 2 cents).
-const double kPitchToleranceSemitones = 0.02;
 // Silence between the random phase and the last held note (sender clock, s).
 const double kQuietGapS = 1.0;
-// A velocity below [velocity]'s default double_at (live/velocity.h): a note on one motor.
-constexpr uint8_t kSoft = 64;
 
 // A note the trace must show: pitch (fractional MIDI note, bend included), from on_s to off_s
 // on the sender's clock.
@@ -52,44 +47,12 @@ struct Expected {
   double on_s, off_s;
 };
 
-// One note the board played, on the board's clock.
-struct Played {
-  int motor;
-  double start_s, end_s, pitch;
-};
-
-// Every note segment of every motor of a trace.
-std::vector<Played> played_notes(const tr::Trace &t) {
-  std::vector<Played> out;
-  for (int m = 0; m < t.motors; ++m)
-    for (const auto &s : tr::segment_notes(t.motor[m].steps, t.f_cpu_hz))
-      out.push_back({m, t.board_seconds(s.start_cycle), t.board_seconds(s.end_cycle), s.midi_note});
-  std::sort(out.begin(), out.end(), [](const Played &a, const Played &b) { return a.start_s < b.start_s; });
-  return out;
-}
-
-// How far the virtual board's clock may have drifted from the wall clock (s): its worst lag
-// plus the time it gave up catching up, from its trace summary.
-double pacing_error_s(const tr::Trace &t) {
-  double total_s = 0;
-  for (const auto &line : t.summary_lines)
-    for (const char *key : {"pacing_lag_max_us=", "pacing_slipped_us="}) {
-      const size_t at = line.find(key);
-      if (at != std::string::npos) total_s += std::stod(line.substr(at + std::strlen(key))) / 1e6;
-    }
-  return total_s;
-}
-
 // Reads the process's stdout until a line contains text (true) or 20 s pass without one.
 bool wait_for_line(stepchoir::ChildProcess &process, const std::string &text) {
   for (std::string line; process.read_line(&line, 20000);)
     if (line.find(text) != std::string::npos) return true;
   return false;
 }
-
-// Called from: each test once `stepchoir live` said it is connected. Lets the JACK graph take
-// the new connection before the first note (events in that cycle could be lost).
-void settle() { std::this_thread::sleep_for(std::chrono::milliseconds(300)); }
 
 // Sleeps until `t_s` on the steady clock.
 void sleep_until_s(double t_s) {
@@ -319,66 +282,6 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   CHECK(std::fabs((after[1].end_s - after[1].start_s) - (off64_s - on64_s)) < tolerance_s);
 }
 
-TEST_CASE("live: without a port it starts the rig file's virtual board, homes its switched carriages first, "
-          "and plays on it",
-          "[e2e][live][pacing]") {
-  JackServer jack(1024);
-  Sender keys;
-  const std::string trace_path = e2e::scratch("live-own-board.csv"), config_path = e2e::scratch("live-own-board.toml");
-  std::remove(trace_path.c_str());
-  const int64_t travel = 3200;  // the virtual board's rail
-  {
-    // A Mega with no port (live starts it), home_on_start: its three switched carriages go to
-    // the middle before the keyboard plays.
-    std::ofstream f(config_path);
-    f << "home_on_start = true\n[[boards]]\nboard = \"mega\"\n";
-    for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << travel << "\nhome_speed = 40.0\n";
-  }
-  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--midi-api", "jack", "--midi",
-                                Sender::kPort, "--vboard-trace", trace_path, "--quiet"},
-                               true);
-  std::string said, homing, line;
-  REQUIRE(live.read_line(&said, 30000));
-  while (live.read_line(&line, 30000) && line.find("-> 5 motors") == std::string::npos) homing += line + "\n";
-  INFO("stepchoir live said: " << said << "\n" << homing << line);
-  CHECK(said.rfind("live: no --port: playing on the virtual board (mega, bundled firmware)", 0) == 0);
-  REQUIRE(line.find("-> 5 motors") != std::string::npos);
-  for (int m = 0; m < 3; ++m)
-    CHECK(homing.find("motor " + std::to_string(m) + ": in the middle, position 1600") != std::string::npos);
-  CHECK(homing.find("motor 3 has no end switch: not homed") != std::string::npos);
-  settle();
-  const double on_s = keys.send(stepchoir::note_on(0, 69, kSoft));
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
-  const double off_s = keys.send(stepchoir::note_off(0, 69));
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  CHECK(live.signal_and_wait(SIGTERM) == 0);  // stops its virtual board, which writes the trace
-
-  const tr::Trace trace = tr::read_trace(trace_path);
-  CHECK(trace.board == "mega");
-  const auto played = played_notes(trace);
-  for (const Played &p : played) UNSCOPED_INFO("played " << p.pitch << " on motor " << p.motor << " for " << p.end_s - p.start_s << " s");
-  // The key: the last thing played, once, after the homing moves.
-  REQUIRE_FALSE(played.empty());
-  const Played &key = played.back();
-  CHECK(std::fabs(key.pitch - 69) < kPitchToleranceSemitones);
-  for (size_t i = 0; i + 1 < played.size(); ++i) CHECK(std::fabs(played[i].pitch - 69) >= kPitchToleranceSemitones);
-  CHECK(std::fabs((key.end_s - key.start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_error_s(trace));
-  // Homing from the middle: each switched carriage reached the far end (the rail measured) and
-  // stood in the middle when the key came.
-  for (int m = 0; m < 3; ++m) {
-    INFO("motor " << m);
-    int64_t position = travel / 2;
-    bool reached_far_end = false;
-    for (const auto &step : trace.motor[size_t(m)].steps) {
-      if (trace.board_seconds(step.rise_cycle) >= key.start_s) break;
-      position = step.position;
-      reached_far_end = reached_far_end || step.position == travel;
-    }
-    CHECK(reached_far_end);
-    CHECK(position == travel / 2);
-  }
-}
-
 TEST_CASE("live: two boards form one pool of motors", "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
@@ -454,50 +357,4 @@ TEST_CASE("live: the keyboard unplugged and back: its held note stops, then it p
   CHECK(held_s < noticed_s - on60_s + tolerance_s);
   CHECK(std::fabs(played[1].pitch - 64) < kPitchToleranceSemitones);
   CHECK(std::fabs((played[1].end_s - played[1].start_s) - (off_s - on_s)) < tolerance_s);
-}
-
-TEST_CASE("live: a configuration file names the board, configures its motor and transposes it", "[e2e][live][pacing]") {
-  JackServer jack(1024);
-  Sender keys;
-  const std::string trace_path = e2e::scratch("live-config.csv"), config_path = e2e::scratch("live-config.toml");
-  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
-  {
-    std::ofstream f(config_path);
-    f << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
-      << "[allocation]\npolicy = \"channel\"\n"
-      << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
-      << "[[boards.motors]]\ntranspose = 12\npulse_us = 5\n";
-  }
-  {  // `stepchoir ports` lists the keyboard among the JACK MIDI inputs
-    stepchoir::ChildProcess ports({STEPCHOIR_BIN, "ports", "--midi-api", "jack"}, true);
-    const std::string listed = ports.read_rest(10000);
-    INFO("stepchoir ports said:\n" << listed);
-    CHECK(ports.wait() == 0);
-    CHECK(listed.find("MIDI inputs (jack):") != std::string::npos);
-    CHECK(listed.find(std::string(":") + Sender::kPort) != std::string::npos);
-  }
-  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
-  std::string line;
-  REQUIRE(live.read_line(&line, 30000));
-  INFO("stepchoir live said: " << line);
-  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
-  settle();
-  keys.send(stepchoir::note_on(0, 60, 100));
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  keys.send(stepchoir::note_off(0, 60));
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  CHECK(live.signal_and_wait(SIGTERM) == 0);
-  REQUIRE(vb.stop() == 0);
-
-  const tr::Trace trace = tr::read_trace(trace_path);
-  const auto played = played_notes(trace);
-  REQUIRE(played.size() == 1);
-  CHECK(played[0].motor == 0);
-  CHECK(std::fabs(played[0].pitch - 72) < kPitchToleranceSemitones);
-  const auto width = tr::min_pulse_width_cycles(trace.motor[0].steps);
-  REQUIRE(width);
-  CHECK(*width >= 5 * 16);      // 5 us at 16 MHz
-  // not the default 2 us, nor much longer: the step ISR lowers STEP a loop pass after the
-  // pulse's end (measured 111 cycles for the 80 asked)
-  CHECK(*width < 5 * 16 + 48);
 }

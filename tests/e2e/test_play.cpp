@@ -193,8 +193,8 @@ TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both 
   const Plan plan = plan_for(song, 2, 1.0, {1, 2});
   REQUIRE(plan.unplayed.empty());
   // Jam follows the refined clock as play does (its round trips pass through the live path's
-  // queue, whose writer tells when each truly left): every note within 0.5 cent.
-  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan);
+  // queue, whose writer tells when each truly left), once settled: every note within 0.5 cent.
+  const sc::trace::ScoreCheck c = check_song("jam, the song", t, plan, 0, PitchCheck::kSettled);
   CHECK(c.max_release_late_us < 100.0);
   // The keyboard: each key's note on motor 2 or 3 at its pitch, for about as long as it was held.
   std::vector<sc::trace::NoteSegment> live;

@@ -24,8 +24,11 @@ struct BridgeModel {
 
   double frame_phase_us = 370;  // where the host's 1 ms USB frames start
 
-  // From a frame's start to the board's stamp of the request it carries: 6 bytes at 115,200 baud.
-  static double stamp_after_frame_us() { return 6 * 87; }
+  // A byte on the board's UART: the 16U2 hands host bytes on 15.3 us apart, and the board's
+  // replies go at 1,000,000 baud, 10 us a byte (docs/usb-bridges.md).
+  static constexpr double kHostByteUs = 15.3, kBoardByteUs = 10.0;
+  // From a frame's start to the board's stamp of the request it carries: its 6 bytes.
+  static double stamp_after_frame_us() { return 6 * kHostByteUs; }
 
   // The board's ticks (unwrapped) at host time t_us, its clock not behind, and back.
   double board_ticks(double t_us) const { return 7e8 + t_us * 16.0 * (1 + ppm / 1e6); }
@@ -37,7 +40,7 @@ struct BridgeModel {
     const double flush_period_us = 4096 * (1 + 60e-6);
     const double out = std::ceil((send_us - frame_phase_us) / 1000) * 1000 + frame_phase_us;
     const double stamp = out + stamp_after_frame_us();
-    const double ready = stamp + 6 * 87;
+    const double ready = stamp + 6 * kBoardByteUs;  // the 6-byte reply
     const double flush = std::ceil(ready / flush_period_us) * flush_period_us;
     const double in = std::ceil((flush - frame_phase_us) / 1000) * 1000 + frame_phase_us;
     const double recv = in + sched(rng);
@@ -48,7 +51,7 @@ struct BridgeModel {
 };
 
 // A note's error in cents for a rate error in ppm.
-inline double cents(double ppm_error) { return 1200 * std::log2(1 + ppm_error / 1e6); }
+inline double cents_of_ppm(double ppm_error) { return 1200 * std::log2(1 + ppm_error / 1e6); }
 
 }  // namespace stepchoir
 

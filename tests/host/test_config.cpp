@@ -122,6 +122,7 @@ driver = "drv8825"
 idle = "disable"
 [[boards]]
 port = "/dev/ttyACM2"
+board = "mega"
 )",
                                      "full");
   CHECK(c.a4_hz == 442);
@@ -132,6 +133,8 @@ port = "/dev/ttyACM2"
   CHECK(c.sing_percussion);
   REQUIRE(c.boards.size() == 2);
   CHECK(c.boards[1].port == "/dev/ttyACM2");
+  CHECK(c.boards[1].board == "mega");
+  CHECK(c.boards[0].board == "uno");  // left out: an Uno
   REQUIRE(c.boards[0].motors.size() == 2);
   const MotorSettings &m = c.boards[0].motors[0];
   CHECK(m.hardware.motor == 0);

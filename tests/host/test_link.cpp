@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <linux/serial.h>
 #include <sys/ioctl.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -33,7 +34,7 @@ bool set_serial_flags(int fd, int flags) {
 
 }  // namespace
 
-TEST_CASE("link: a pseudo-terminal has no low-latency flag, and the link on it works as before", "[link]") {
+TEST_CASE("link: a pseudo-terminal has no low-latency flag, and asking for it leaves the link working", "[link]") {
   const int master = ::posix_openpt(O_RDWR | O_NOCTTY);
   REQUIRE(master >= 0);
   REQUIRE(::grantpt(master) == 0);
@@ -43,7 +44,7 @@ TEST_CASE("link: a pseudo-terminal has no low-latency flag, and the link on it w
   REQUIRE(fd >= 0);
   CHECK_FALSE(set_low_latency(fd));
   ::close(fd);
-  std::unique_ptr<Link> link = open_link(path);
+  std::unique_ptr<Link> link = open_link(path);  // termios, no flag asked; the pty carries bytes
   const uint8_t out[3] = {1, 2, 3};
   CHECK(link->write(out, sizeof out));
   uint8_t in[8] = {};
@@ -52,7 +53,8 @@ TEST_CASE("link: a pseudo-terminal has no low-latency flag, and the link on it w
 }
 
 // A real serial driver: the machine's first 8250 UART (/dev/ttyS0), which a virtual machine
-// has. Its flag cleared, opened as a board's port: open_link sets it again.
+// has. Its flag cleared, opened as a board's port: open_link sets it again. The port's line
+// settings and flags are put back as they were.
 TEST_CASE("link: a serial port opened for a board gets the driver's low-latency flag", "[link]") {
   const int fd = ::open("/dev/ttyS0", O_RDWR | O_NOCTTY | O_NONBLOCK);
   int before = 0;
@@ -61,6 +63,18 @@ TEST_CASE("link: a serial port opened for a board gets the driver's low-latency 
     if (fd >= 0) ::close(fd);
     return;
   }
+  termios line{};
+  const bool have_line = tcgetattr(fd, &line) == 0;
+  struct Restore {
+    int fd, flags;
+    bool have_line;
+    termios line;
+    ~Restore() {
+      if (have_line) tcsetattr(fd, TCSANOW, &line);
+      set_serial_flags(fd, flags);
+      ::close(fd);
+    }
+  } restore{fd, before, have_line, line};
   REQUIRE(set_serial_flags(fd, before & ~ASYNC_LOW_LATENCY));
   int flags = 0;
   REQUIRE(serial_flags(fd, &flags));
@@ -74,6 +88,4 @@ TEST_CASE("link: a serial port opened for a board gets the driver's low-latency 
   CHECK(set_low_latency(fd));  // the call itself, on the descriptor
   REQUIRE(serial_flags(fd, &flags));
   CHECK(flags & ASYNC_LOW_LATENCY);
-  set_serial_flags(fd, before);
-  ::close(fd);
 }

@@ -130,7 +130,7 @@ TEST_CASE("clock: through a 16U2 bridge's 1 ms frames and 4 ms batches the rate 
     for (int i = 0; i < 1500; ++i) {  // 30 s at the player's 50 round trips a second
       const double t = 1e6 + i * 20000.0 + (i % 7) * 131.0;
       REQUIRE(link.round_trip(sync, t));
-      const double err = std::fabs(cents(sync.ppm() - ppm));
+      const double err = std::fabs(cents_of_ppm(sync.ppm() - ppm));
       if (i >= 150) worst_after_2s = std::max(worst_after_2s, err);  // 1 s of sync, then 2 s of song
       if (i >= 550) worst_after_10s = std::max(worst_after_10s, err);
     }
@@ -196,7 +196,7 @@ TEST_CASE("clock: a board that falls 10 ms behind for a moment and catches up mo
     }
     INFO("first stall at " << first_s << " s: worst rate error " << worst_ppm << " ppm, time " << worst_time_us << " us");
     std::printf("clock, stalls from %.1f s: worst %.1f ppm, %.0f us\n", first_s, worst_ppm, worst_time_us);
-    CHECK(cents(worst_ppm) < 0.5);
+    CHECK(cents_of_ppm(worst_ppm) < 0.5);
     CHECK(worst_time_us < 3000);  // the bridge's own one-sided delays: a constant part
   }
 }
@@ -237,7 +237,7 @@ TEST_CASE("clock: a prior rate (the same crystal measured before) holds from the
     double worst = 0;
     for (int i = 0; i < 1000; ++i) {
       REQUIRE(link.round_trip(sync, 1e6 + i * 20000.0 + (i % 7) * 131.0));
-      worst = std::max(worst, std::fabs(cents(sync.ppm() - ppm)));
+      worst = std::max(worst, std::fabs(cents_of_ppm(sync.ppm() - ppm)));
       CHECK(sync.rate_sigma_ppm() <= 10);
     }
     CHECK(sync.has_prior());
@@ -249,7 +249,7 @@ TEST_CASE("clock: a prior rate (the same crystal measured before) holds from the
     BridgeModel link{ppm};
     for (int i = 0; i < 1000; ++i) REQUIRE(link.round_trip(sync, 1e6 + i * 20000.0 + (i % 7) * 131.0));
     CHECK_FALSE(sync.has_prior());
-    CHECK(std::fabs(cents(sync.ppm() - ppm)) < 0.1);
+    CHECK(std::fabs(cents_of_ppm(sync.ppm() - ppm)) < 0.1);
   }
   SECTION("a reset (the board restarted) keeps the prior; without one the rate is nominal until fitted") {
     ClockSync sync(16e6);

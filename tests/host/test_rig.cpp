@@ -104,6 +104,11 @@ TEST_CASE("rig: a port gets its own [[boards]] entry, else the entry in its plac
   CHECK(board_settings(rig, "/dev/A", 1) == &rig.config.boards[0]);
   CHECK(board_settings(rig, "/dev/C", 1) == &rig.config.boards[1]);  // by place
   CHECK(board_settings(rig, "/dev/C", 2) == nullptr);
+  // An entry whose port is there belongs to the board on it: another port does not take it.
+  Rig there;
+  there.config = parse_config("[[boards]]\nport = \"/dev/null\"\n[[boards.motors]]\ntranspose = 1\n", "there.toml");
+  CHECK(board_settings(there, "/dev/C", 0) == nullptr);
+  CHECK(board_settings(there, "/dev/null", 0) == &there.config.boards[0]);
   CHECK(rig_port(rig, "") == "/dev/A");
   CHECK(board_settings(Rig{}, "/dev/A", 0) == nullptr);
 }
@@ -116,6 +121,17 @@ TEST_CASE("rig: without a port the virtual boards are --vboard's, else the file'
   CHECK(rig_vboards(rig, {"uno"}) == std::vector<std::string>{"uno"});     // the command line wins
   CHECK(rig_vboards(Rig{}, {}) == std::vector<std::string>{"uno"});
   CHECK(rig_port(rig, "").empty());  // no port in the file: the commands start its virtual boards
+}
+
+TEST_CASE("rig: a song command plays on --port, else the file's ports, unless a virtual board was asked for",
+          "[config]") {
+  Rig rig;
+  rig.config = parse_config("[[boards]]\nport = \"/dev/A\"\n[[boards]]\nboard = \"mega\"\n[[boards]]\nport = \"/dev/B\"\n",
+                            "three.toml");
+  CHECK(rig_ports(rig, {}, false) == std::vector<std::string>{"/dev/A", "/dev/B"});
+  CHECK(rig_ports(rig, {"/dev/C"}, false) == std::vector<std::string>{"/dev/C"});
+  CHECK(rig_ports(rig, {}, true).empty());  // --vboard and the like win over the file's ports
+  CHECK(rig_ports(Rig{}, {}, false).empty());
 }
 
 TEST_CASE("rig: the song's motors take their range, transpose, tuning and mutes from the file", "[config]") {
@@ -162,6 +178,12 @@ TEST_CASE("board memory: in XDG_CACHE_HOME, else ~/.cache - a record kept, repla
   CHECK(mega->clock_ppm == -1500.25);
   CHECK_FALSE(recall_board(1, path));
   CHECK(board_id_hex(0xabcull) == "0000000000000abc");
+}
+
+TEST_CASE("board memory: the keyboard's clock is F_CPU, or as the board's remembered crystal runs", "[config]") {
+  CHECK(crystal_hz(16000000, std::nullopt) == 16000000u);  // a board met for the first time
+  CHECK(crystal_hz(16000000, BoardRecord{"uno", 5000.0, 5.0}) == 16080000u);
+  CHECK(crystal_hz(16000000, BoardRecord{"uno", -1500.25, 5.0}) == 15975996u);  // to the hertz
 }
 
 TEST_CASE("board memory: a broken file names its line and column", "[config]") {

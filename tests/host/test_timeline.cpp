@@ -97,7 +97,7 @@ TEST_CASE("timeline: a song through a 16U2 bridge on a crystal 0.5 % off follows
     double worst_step_2s = 0, worst_step_10s = 0, worst_cents_2s = 0, worst_cents_10s = 0;
     const double true_rate = 16e6 * (1 + ppm / 1e6);
     for (size_t k = 0; k < sent.size(); ++k) {
-      const double pitch_cents = std::fabs(cents((true_rate / sent[k].rate - 1) * 1e6));
+      const double pitch_cents = std::fabs(cents_of_ppm((true_rate / sent[k].rate - 1) * 1e6));
       if (k > 0) {
         REQUIRE(sent[k].ticks > sent[k - 1].ticks);  // in order: song time never steps back
         const double real_s = (link.host_us(sent[k].ticks) - link.host_us(sent[k - 1].ticks)) / 1e6;

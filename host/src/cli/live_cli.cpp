@@ -27,6 +27,7 @@
 #include "cli/learn_prompt.h"
 #include "cli/link_repair.h"
 #include "cli/setlist_runner.h"
+#include "config/board_memory.h"
 #include "config/config.h"
 #include "config/rig.h"
 #include "live/realtime_setup.h"
@@ -96,10 +97,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   const std::string api_name = o.midi_api.empty() ? cfg.midi_api : o.midi_api;
   const MidiApi api = parse_midi_api(api_name);
   const Policy policy = o.policy.empty() ? cfg.policy : parse_policy(o.policy);
-  std::vector<std::string> ports = o.ports;
-  if (ports.empty())
-    for (const BoardSettings &b : cfg.boards)
-      if (!b.port.empty()) ports.push_back(b.port);
+  std::vector<std::string> ports = rig_ports(rig, o.ports, !o.vboard_board.empty() || !o.vboard_trace.empty());
 
   std::unique_ptr<VirtualBoard> vboard;
   if (ports.empty()) {
@@ -119,8 +117,21 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     const BoardSettings *settings = board_settings(rig, ports[b], b);
     if (settings) configure_motors(*boards.back(), caps, *settings, ports[b]);
     if (cfg.home_on_start) home_board(*boards.back(), caps, settings, ports[b], {}, say_line);
-    pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, caps.f_cpu_hz});
-    setlist_boards.push_back(SetlistBoard{ports[b], caps, settings});
+    // A board met before (config/board_memory.h): the keyboard plays in tune with its crystal,
+    // and a setlist song starts from its remembered rate.
+    std::optional<BoardRecord> known;
+    if (!vboard) {
+      if (const std::optional<uint64_t> id = identify_board(*boards.back())) {
+        try {
+          known = recall_board(*id);
+        } catch (const std::exception &e) {
+          log->warn("{} (the board memory is left aside)", e.what());
+        }
+        if (known) log->info("{} is board {}, met before: crystal {:+.1f} ppm", ports[b], board_id_hex(*id), known->clock_ppm);
+      }
+    }
+    pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, crystal_hz(caps.f_cpu_hz, known)});
+    setlist_boards.push_back(SetlistBoard{ports[b], caps, settings, known});
   }
   AllocatorConfig alloc = pool_config(pool, policy);
   apply_allocation(cfg, &alloc);
@@ -130,7 +141,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       const uint32_t f_cpu_hz = alloc.motors[first + m].f_cpu_hz;
       alloc.motors[first + m] = settings->motors[m].music;
       alloc.motors[first + m].f_cpu_hz = f_cpu_hz;
-      alloc.mono_channel[first + m] = settings->motors[m].mono_channel;
+      alloc.mono_channel[first + m] = motor_mono_channel(settings, static_cast<uint8_t>(m));
     }
   }
   std::vector<LivePreset> presets = live_presets(cfg, alloc);  // every motor index checked against the pool

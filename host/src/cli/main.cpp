@@ -206,7 +206,7 @@ int main(int argc, char **argv) {
   live->add_option("--midi-api", live_opt.midi_api, "MIDI API (default alsa)")->check(CLI::IsMember({"alsa", "jack"}));
   live->add_option("--vboard", live_opt.vboard_board,
                    "Board the virtual board simulates (without --port; default: the rig file's first board's, else uno)")
-      ->check(CLI::IsMember({"uno", "mega"}));
+      ->check(CLI::IsMember(stepchoir::kBoardKinds));
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");
   live->add_flag("--quiet,-q", live_opt.quiet, "No console and no status line");
@@ -218,8 +218,11 @@ int main(int argc, char **argv) {
   auto *print_default = config->add_flag("--print-default", "Print the commented default configuration");
   auto *where = config->add_flag("--where", "Print the file commands read without --config");
   std::string check_path;
-  config->add_option("--check", check_path, "Read a configuration file and report the first problem")
-      ->check(CLI::ExistingFile);
+  auto *check = config->add_option("--check", check_path,
+                                   "Read a configuration file (default: the one commands read) and report the first "
+                                   "problem")
+                    ->expected(0, 1)
+                    ->check(CLI::ExistingFile);
   config->require_option(1);
   const auto gcode = stepchoir::add_gcode_command(app);
   const auto play = stepchoir::add_play_commands(app);
@@ -249,9 +252,12 @@ int main(int argc, char **argv) {
         std::printf("%s%s\n", path.empty() ? "(no HOME: none)" : path.c_str(),
                     path.empty() ? "" : found.empty() ? " (not there: every setting at its default)" : "");
       }
-      if (!check_path.empty()) {
-        const auto c = stepchoir::load_config(check_path);
-        std::printf("%s: ok (%zu boards)\n", check_path.c_str(), c.boards.size());
+      if (*check) {
+        const std::string path = check_path.empty() ? stepchoir::rig_path("") : check_path;
+        if (path.empty())
+          throw std::runtime_error("config --check: no file given, and none at " + stepchoir::default_config_path());
+        const auto c = stepchoir::load_config(path);
+        std::printf("%s: ok (%zu boards)\n", path.c_str(), c.boards.size());
       }
       return 0;
     }

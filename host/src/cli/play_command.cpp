@@ -94,7 +94,7 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
     s->add_option("--vboard", c->vboards,
                   "Board the virtual board simulates (without --port); several (uno,mega): one song on all "
                   "(default: the rig file's boards, else uno)")
-        ->delimiter(',')->check(CLI::IsMember({"uno", "mega"}));
+        ->delimiter(',')->check(CLI::IsMember(stepchoir::kBoardKinds));
     s->add_option("--vboard-link", c->vboard_link,
                   "The virtual board's USB bridge (default 16u2, the Uno's and Mega's; docs/usb-bridges.md)")
         ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
@@ -181,12 +181,10 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
       return 0;
     }
-    // The boards: --port (repeat it: their motors form one pool), else the rig file's, else the
-    // virtual board started here (render: always).
-    std::vector<std::string> paths = rendering ? std::vector<std::string>{} : ports;
-    if (paths.empty() && !rendering)
-      for (const BoardSettings &b : rig.config.boards)
-        if (!b.port.empty()) paths.push_back(b.port);
+    // The boards: --port (repeat it: their motors form one pool), else the rig file's unless a
+    // virtual board's option was given, else the virtual boards started here (render: always).
+    const bool virtual_asked = !vboards.empty() || !vboard_link.empty() || !vboard_trace.empty() || clock_ppm != 0;
+    std::vector<std::string> paths = rendering ? std::vector<std::string>{} : rig_ports(rig, ports, virtual_asked);
     // Without a board: the virtual boards of --vboard, else of the rig file's boards (several:
     // one song on all), each with its trace (the first at the path given, the others beside it:
     // T-2.csv, ...).
@@ -293,13 +291,17 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
     if (jamming) {
       // The live path owns every board's link (its writer sends live notes first); the song goes
       // through it (JamLink). The keyboard plays the other motors of every board, one pool.
+      // A board met before: the keyboard's periods at its remembered crystal's rate.
       std::vector<LiveBoard> lbs;
       for (const BoardRun &r : boards)
-        lbs.push_back(LiveBoard{&r.board->link(), static_cast<uint8_t>(r.live_ids.size()), r.caps.f_cpu_hz, r.live_ids});
+        lbs.push_back(LiveBoard{&r.board->link(), static_cast<uint8_t>(r.live_ids.size()),
+                                crystal_hz(r.caps.f_cpu_hz, r.known), r.live_ids});
       AllocatorConfig alloc = pool_config(lbs, policy.empty() ? rig.config.policy : parse_policy(policy));
       for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].live_ids.size(), ++b) {
-        const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, boards[b].caps.f_cpu_hz, boards[b].live_ids);
+        const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, lbs[b].f_cpu_hz, boards[b].live_ids);
         std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
+        for (size_t k = 0; k < boards[b].live_ids.size(); ++k)
+          alloc.mono_channel[first + k] = motor_mono_channel(boards[b].settings, boards[b].live_ids[k]);
       }
       apply_allocation(rig.config, &alloc);
       console_sources.music = alloc;

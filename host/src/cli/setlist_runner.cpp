@@ -143,6 +143,11 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
     PlayerOptions po;
     po.motors = sp.song_ids[b];
     po.exclusive = false;
+    po.refine_rate = false;  // the song starts at the pedal, a second of sync after it
+    if (boards_[b].known) {  // ... in tune from its first note on a board met before
+      po.crystal_ppm = boards_[b].known->clock_ppm;
+      po.crystal_sigma_ppm = boards_[b].known->sigma_ppm;
+    }
     po.a4_hz = a4_hz_;
     if (playing > 1) po.start_gate = [gate = gate_.get(), b](uint64_t now_us) { return gate->ready(b, now_us); };
     auto board = std::make_unique<Board>(std::make_unique<JamLink>(session, b, boards_[b].path));

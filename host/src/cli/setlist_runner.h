@@ -10,11 +10,13 @@
 #include <cstdio>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "board/board.h"
+#include "config/board_memory.h"
 #include "config/config.h"
 #include "live/session.h"
 #include "player/plan.h"
@@ -28,6 +30,7 @@ struct SetlistBoard {
   std::string path;                         // its port, for names and messages
   Caps caps;                                // from its hello
   const BoardSettings *settings = nullptr;  // the rig file's entry, if any
+  std::optional<BoardRecord> known;         // a board met before: its crystal (board_memory.h)
 };
 
 class SetlistRunner {

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -95,6 +96,11 @@ void remember_board(uint64_t id, const BoardRecord &record, const std::string &p
     ::unlink(tmp.c_str());
     throw std::runtime_error(path + ": cannot write: " + std::strerror(errno));
   }
+}
+
+uint32_t crystal_hz(uint32_t f_cpu_hz, const std::optional<BoardRecord> &known) {
+  if (!known) return f_cpu_hz;
+  return static_cast<uint32_t>(std::llround(f_cpu_hz * (1.0 + known->clock_ppm / 1e6)));
 }
 
 std::optional<uint64_t> identify_board(Board &board) {

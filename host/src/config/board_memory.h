@@ -9,7 +9,7 @@
 //   clock_ppm = 2493.7
 //   sigma_ppm = 6.1
 //
-// Called from: the play, render and jam commands and `hello`, off every real-time path.
+// Called from: the live, play, render and jam commands and `hello`, off every real-time path.
 #ifndef STEPCHOIR_HOST_CONFIG_BOARD_MEMORY_H
 #define STEPCHOIR_HOST_CONFIG_BOARD_MEMORY_H
 
@@ -41,6 +41,11 @@ std::optional<BoardRecord> recall_board(uint64_t id, const std::string &path = b
 // Writes (or replaces) the record of board id, keeping the others; creates the directory.
 // Throws std::runtime_error naming the file when it cannot.
 void remember_board(uint64_t id, const BoardRecord &record, const std::string &path = board_memory_path());
+
+// The board's clock as a listener hears it (Hz): F_CPU, or for a board met before F_CPU as its
+// remembered crystal runs, rounded to the hertz (0.06 ppm). The keyboard's periods come from it,
+// so its notes are in tune on a board whose crystal is off. Called from: live, jam.
+uint32_t crystal_hz(uint32_t f_cpu_hz, const std::optional<BoardRecord> &known);
 
 // The board's id; a board without one (id 0: a new board) is given a random one first.
 // nullopt when its firmware keeps no id (it does not answer). Called after hello or greet.

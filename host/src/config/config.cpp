@@ -3,6 +3,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -173,7 +174,7 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
       BoardSettings bs;
       bs.port = get_string(source, *t, "port", "");
       bs.board = get_string(source, *t, "board", bs.board);
-      if (bs.board != "uno" && bs.board != "mega") fail(source, *t->get("board"), "board '" + bs.board + "': expected uno or mega");
+      if (std::find(kBoardKinds.begin(), kBoardKinds.end(), bs.board) == kBoardKinds.end()) fail(source, *t->get("board"), "board '" + bs.board + "': expected uno or mega");
       if (const toml::node *mn = t->get("motors")) {
         const toml::array *motors = mn->as_array();
         if (!motors) fail(source, *mn, "motors: expected [[boards.motors]] tables");
@@ -206,7 +207,7 @@ const char *default_config_text() {
 # render, tone, driver, home, jog, center, hello, status, panic): --config FILE, else this file at
 # $XDG_CONFIG_HOME/stepchoir/stepchoir.toml (~/.config/stepchoir/stepchoir.toml); `stepchoir
 # config --where` prints it. Every key is optional: what is left out keeps the value shown.
-# Command-line options (--midi, --midi-api, --policy, --port) override the file.
+# Command-line options (--midi, --midi-api, --policy, --port, --vboard ...) override the file.
 
 # Tuning reference: the frequency of A4 (MIDI note 69), Hz.
 a4_hz = 440.0

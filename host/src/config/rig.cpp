@@ -2,6 +2,7 @@
 #include "config/rig.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -38,8 +39,11 @@ const BoardSettings *board_settings(const Rig &rig, const std::string &port, siz
   const auto &boards = rig.config.boards;
   for (const BoardSettings &b : boards)
     if (!b.port.empty() && b.port == port) return &b;
-  // else by position: the same rig on another port name (a board plugged in elsewhere)
-  return index < boards.size() ? &boards[index] : nullptr;
+  // else by position: the same rig on another port name (a board plugged in elsewhere), unless
+  // that entry's port is there: it belongs to the board on it, not to this one.
+  if (index >= boards.size()) return nullptr;
+  const BoardSettings &b = boards[index];
+  return b.port.empty() || ::access(b.port.c_str(), F_OK) != 0 ? &b : nullptr;
 }
 
 std::string rig_port(const Rig &rig, const std::string &port) {
@@ -49,11 +53,19 @@ std::string rig_port(const Rig &rig, const std::string &port) {
   return "";
 }
 
+std::vector<std::string> rig_ports(const Rig &rig, const std::vector<std::string> &ports, bool virtual_asked) {
+  if (!ports.empty() || virtual_asked) return ports;
+  std::vector<std::string> out;
+  for (const BoardSettings &b : rig.config.boards)
+    if (!b.port.empty()) out.push_back(b.port);
+  return out;
+}
+
 std::vector<std::string> rig_vboards(const Rig &rig, const std::vector<std::string> &given) {
   if (!given.empty()) return given;
   std::vector<std::string> kinds;
   for (const BoardSettings &b : rig.config.boards) kinds.push_back(b.board);
-  if (kinds.empty()) kinds.push_back("uno");
+  if (kinds.empty()) kinds.push_back(BoardSettings{}.board);
   return kinds;
 }
 
@@ -96,6 +108,10 @@ uint32_t motor_travel(const BoardSettings *settings, uint8_t motor) {
 
 MotionSettings motor_motion(const BoardSettings *settings, uint8_t motor) {
   return settings && motor < settings->motors.size() ? settings->motors[motor].motion : MotionSettings{};
+}
+
+int8_t motor_mono_channel(const BoardSettings *settings, uint8_t motor) {
+  return settings && motor < settings->motors.size() ? settings->motors[motor].mono_channel : 0;
 }
 
 void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,

@@ -40,13 +40,19 @@ struct Rig {
 Rig load_rig(const std::string &given);
 
 // The [[boards]] entry for the board at `port`, the `index`-th of the command's boards: the
-// entry whose port is that port, else the index-th entry, else none. Called from: the
-// commands, after they opened the board.
+// entry whose port is that port, else the index-th entry if it names no port or one that is
+// not there (the board plugged in elsewhere), else none. Called from: the commands, after they
+// opened the board.
 const BoardSettings *board_settings(const Rig &rig, const std::string &port, size_t index);
 
 // The board a one-board command talks to: --port if given, else the file's first board's port,
-// else "" (play, render and jam then start the virtual board). Called from: main, play.
+// else "". Called from: main.
 std::string rig_port(const Rig &rig, const std::string &port);
+
+// The boards a song command (live, play, jam) plays on: `ports` (--port) if given, else the
+// file's ports unless `virtual_asked` (a virtual board's option was given: the command line
+// wins), else none (the command starts virtual boards: rig_vboards).
+std::vector<std::string> rig_ports(const Rig &rig, const std::vector<std::string> &ports, bool virtual_asked);
 
 // The boards the virtual boards simulate when a command has no port at all: `given` (--vboard)
 // if not empty, else each [[boards]] entry's board, else one Uno. Called from: play, render, jam,
@@ -76,6 +82,9 @@ void say_line(const std::string &line);
 // One motor's travel (steps) and motion settings: the file's, else the defaults.
 uint32_t motor_travel(const BoardSettings *settings, uint8_t motor);
 MotionSettings motor_motion(const BoardSettings *settings, uint8_t motor);
+// One motor's channel under policy mono (0-15): the file's, else 0 (channel 1, in unison with
+// every motor the file leaves out). Called from: live, jam.
+int8_t motor_mono_channel(const BoardSettings *settings, uint8_t motor);
 
 // The planner's and allocator's view of the board's motors `ids`: each one's musical settings
 // from the file (range, transpose, tuning, mutes) and the board's clock (Hz). Motors the file

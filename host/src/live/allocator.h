@@ -95,7 +95,8 @@ enum class Priority : uint8_t {
 
 // One motor's musical settings.
 struct MotorConfig {
-  uint32_t f_cpu_hz = 16000000;  // clock of the board driving this motor (Caps::f_cpu_hz)
+  uint32_t f_cpu_hz = 16000000;  // clock of the board driving this motor (Caps::f_cpu_hz, or
+                                 // as its crystal runs: config/board_memory.h crystal_hz)
   uint8_t lowest_note = 21;      // playable range, MIDI notes, inclusive (default: piano, A0..C8,
   uint8_t highest_note = 108;    //   which stays within the firmware's period limits at 16 MHz)
   int8_t transpose = 0;          // semitones added to every note before folding

@@ -119,7 +119,7 @@ void Player::anchor(double score_s, uint64_t now_us) {
 // reordered), and the notes not yet sent get their times and periods at the refined rate (a
 // held note keeps its period).
 void Player::follow_rate() {
-  if (!playing_ || opt_.board_time || !opt_.auto_tune || opt_.song_clock) return;
+  if (!playing_ || opt_.board_time || !opt_.auto_tune || !opt_.refine_rate || opt_.song_clock) return;
   if (line_.follow(sent_score_, sync_)) stats_.rate_ppm = (line_.rate / caps_.f_cpu_hz - 1.0) * 1e6;
 }
 

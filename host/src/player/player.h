@@ -69,6 +69,10 @@ struct PlayerOptions {
                                  // reopened the port and waited: reopen asks (Board::hello)
   std::vector<uint8_t> motors;   // plan motor -> board motor (empty: the same index)
   bool exclusive = true;         // the board is the song's alone (jam: false, see silence())
+  // Before the first note, wait (up to 2 s more) for the clock fit's rate to be within 30 ppm,
+  // and follow the fit as the song plays (decision 023). false: the song starts after sync_s
+  // with the rate it has then and keeps it (live's setlist: its song starts at the pedal).
+  bool refine_rate = true;
   // The board's crystal error and its standard error (ppm) as remembered from an earlier song
   // (config/board_memory.h); the clock fit's prior. nullopt: a board met for the first time.
   std::optional<double> crystal_ppm;

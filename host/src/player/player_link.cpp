@@ -138,8 +138,8 @@ void Player::take_status(const uint8_t *p, size_t len) {
 // Called from: run and reconnect. Clock round trips every kSyncEveryUs for `seconds` (at
 // least 20), so the first notes already have a fitted offset, and, with need_rate, until the
 // fit has a rate within kRateSigmaPpm (a second of samples on a quiet link, a few behind a
-// USB bridge; kSyncLongerS more at most; any rate under a song clock, whose Start may come at
-// once and whose timeline takes the fit as it is). Nothing else of the song's is on the link
+// USB bridge; kSyncLongerS more at most; any rate without refine_rate, or under a song clock,
+// whose Start may come at once and whose timeline takes the fit as it is). Nothing else of the song's is on the link
 // meanwhile: the many round trips give each of the fit's points its quickest way out.
 bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> &stop) {
   const uint64_t start = monotonic_us();
@@ -147,7 +147,8 @@ bool Player::sync_clock(double seconds, bool need_rate, const std::atomic<bool> 
   const uint64_t first = stats_.clock_samples;
   for (int i = 0; !stop.load(); ++i) {
     const uint64_t now = monotonic_us();
-    const bool rate_ok = sync_.has_rate() && (opt_.song_clock || sync_.rate_sigma_ppm() <= kRateSigmaPpm ||
+    const bool rate_ok = sync_.has_rate() && (!opt_.refine_rate || opt_.song_clock ||
+                                              sync_.rate_sigma_ppm() <= kRateSigmaPpm ||
                                               now - start >= (seconds + kSyncLongerS) * 1e6);
     if (now - start >= seconds * 1e6 && stats_.clock_samples - first >= 20 &&
         (!need_rate || opt_.board_time || rate_ok))

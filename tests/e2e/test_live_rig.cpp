@@ -1,0 +1,154 @@
+// test_live_rig.cpp: `stepchoir live` and the rig file, end to end on the real firmware through
+// a JACK keyboard: without a port it starts the file's virtual board (a Mega) and homes its
+// switched carriages first (home_on_start); the file names the board, configures its motor
+// (5 us pulses) and transposes it; and a board met before, its crystal 0.5 % fast, plays the
+// keyboard in tune in real time (its crystal from the host's memory, config/board_memory.h).
+#include <catch2/catch.hpp>
+
+#include <signal.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis.h"
+#include "core/midi_event.h"
+#include "e2e_util.h"
+#include "jack_rig.h"
+#include "live_checks.h"
+#include "trace.h"
+#include "vboard_process.h"
+
+namespace tr = sc::trace;
+using namespace live_checks;
+
+TEST_CASE("live: without a port it starts the rig file's virtual board, homes its switched carriages first, "
+          "and plays on it",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live-own-board.csv"), config_path = e2e::scratch("live-own-board.toml");
+  std::remove(trace_path.c_str());
+  const int64_t travel = 3200;  // the virtual board's rail
+  {
+    // A Mega with no port (live starts it), home_on_start: its three switched carriages go to
+    // the middle before the keyboard plays.
+    std::ofstream f(config_path);
+    f << "home_on_start = true\n[[boards]]\nboard = \"mega\"\n";
+    for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << travel << "\nhome_speed = 40.0\n";
+  }
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--midi-api", "jack", "--midi",
+                                Sender::kPort, "--vboard-trace", trace_path, "--quiet"},
+                               true);
+  std::string said, homing, line;
+  REQUIRE(live.read_line(&said, 30000));
+  while (live.read_line(&line, 30000) && line.find("-> 5 motors") == std::string::npos) homing += line + "\n";
+  INFO("stepchoir live said: " << said << "\n" << homing << line);
+  CHECK(said.rfind("live: no --port: playing on the virtual board (mega, bundled firmware)", 0) == 0);
+  REQUIRE(line.find("-> 5 motors") != std::string::npos);
+  for (int m = 0; m < 3; ++m)
+    CHECK(homing.find("motor " + std::to_string(m) + ": in the middle, position 1600") != std::string::npos);
+  CHECK(homing.find("motor 3 has no end switch: not homed") != std::string::npos);
+  settle();
+  const double on_s = keys.send(stepchoir::note_on(0, 69, kSoft));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  const double off_s = keys.send(stepchoir::note_off(0, 69));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);  // stops its virtual board, which writes the trace
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  CHECK(trace.board == "mega");
+  const auto played = played_notes(trace);
+  for (const Played &p : played) UNSCOPED_INFO("played " << p.pitch << " on motor " << p.motor << " for " << p.end_s - p.start_s << " s");
+  // The key: the last thing played, once, after the homing moves.
+  REQUIRE_FALSE(played.empty());
+  const Played &key = played.back();
+  CHECK(std::fabs(key.pitch - 69) < kPitchToleranceSemitones);
+  for (size_t i = 0; i + 1 < played.size(); ++i) CHECK(std::fabs(played[i].pitch - 69) >= kPitchToleranceSemitones);
+  CHECK(std::fabs((key.end_s - key.start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_error_s(trace));
+  // Homing from the middle: each switched carriage reached the far end (the rail measured) and
+  // stood in the middle when the key came.
+  for (int m = 0; m < 3; ++m) {
+    INFO("motor " << m);
+    int64_t position = travel / 2;
+    bool reached_far_end = false;
+    for (const auto &step : trace.motor[size_t(m)].steps) {
+      if (trace.board_seconds(step.rise_cycle) >= key.start_s) break;
+      position = step.position;
+      reached_far_end = reached_far_end || step.position == travel;
+    }
+    CHECK(reached_far_end);
+    CHECK(position == travel / 2);
+  }
+}
+
+TEST_CASE("live: a configuration file names the board, configures its motor and transposes it, and a board "
+          "met before with a crystal 0.5 % fast plays in tune",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live-config.csv"), config_path = e2e::scratch("live-config.toml");
+  // The board's id in its EEPROM, and its crystal in the host's memory (XDG_CACHE_HOME, which
+  // the child reads): live's keyboard takes it, so the notes are in tune in real time.
+  const std::string eeprom = e2e::scratch("live-config.eeprom"), cache = e2e::scratch("live-config-cache");
+  std::ofstream(eeprom, std::ios::binary) << std::string("\x2a\x00\x00\x00\x00\x00\x00\x01", 8);
+  ::mkdir(cache.c_str(), 0700);
+  ::mkdir((cache + "/stepchoir").c_str(), 0700);
+  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.010000000000002a]\nclock_ppm = 5000.0\nsigma_ppm = 5.0\n";
+  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);
+  struct Restore {
+    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
+  } restore;
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure", "--eeprom", eeprom,
+                    "--clock-ppm", "5000"});
+  {
+    std::ofstream f(config_path);
+    f << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+      << "[allocation]\npolicy = \"channel\"\n"
+      << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
+      << "[[boards.motors]]\ntranspose = 12\npulse_us = 5\n";
+  }
+  {  // `stepchoir ports` lists the keyboard among the JACK MIDI inputs
+    stepchoir::ChildProcess ports({STEPCHOIR_BIN, "ports", "--midi-api", "jack"}, true);
+    const std::string listed = ports.read_rest(10000);
+    INFO("stepchoir ports said:\n" << listed);
+    CHECK(ports.wait() == 0);
+    CHECK(listed.find("MIDI inputs (jack):") != std::string::npos);
+    CHECK(listed.find(std::string(":") + Sender::kPort) != std::string::npos);
+  }
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
+  settle();
+  keys.send(stepchoir::note_on(0, 60, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keys.send(stepchoir::note_off(0, 60));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace trace = tr::read_trace(trace_path);
+  const auto played = played_notes(trace);
+  REQUIRE(played.size() == 1);
+  CHECK(played[0].motor == 0);
+  // In real time: the board's cycles run 0.5 % fast (8.6 cents sharp if the keyboard took
+  // them for 16 MHz); within a cent.
+  REQUIRE(trace.clock_ppm == 5000.0);
+  const double heard = played[0].pitch + 12 * std::log2(1 + trace.clock_ppm / 1e6);
+  INFO("heard " << heard << " for note 72 (the board's own clock says " << played[0].pitch << ")");
+  CHECK(std::fabs(heard - 72) < 0.01);
+  const auto width = tr::min_pulse_width_cycles(trace.motor[0].steps);
+  REQUIRE(width);
+  CHECK(*width >= 5 * 16);      // 5 us at 16 MHz
+  // not the default 2 us, nor much longer: the step ISR lowers STEP a loop pass after the
+  // pulse's end (measured 111 cycles for the 80 asked)
+  CHECK(*width < 5 * 16 + 48);
+}
