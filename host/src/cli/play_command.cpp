@@ -47,8 +47,8 @@ std::atomic<bool> g_pause{false};
 // render: the virtual board runs at most this many times real time (this machine simulates
 // four sounding motors at about 4x), and the song goes to it this far ahead (board time): a
 // host stalled for up to half a second still keeps ahead of it.
-constexpr double kRenderSpeed = 2.0;
-constexpr double kRenderLeadS = 1.0;
+constexpr double kRenderSpeed = 3.0;
+constexpr double kRenderLeadS = 1.5;
 
 // Runs `prog` beside this program with args, waits; its exit status (or -1).
 // Called from: render (stepchoir-render).
