@@ -90,8 +90,9 @@ struct KnownBoards {
   ~KnownBoards() { ::unsetenv("XDG_CACHE_HOME"); }
 };
 
-// Those two boards as virtual Unos: A traced from the start, B on a fixed link so that it can be
-// powered off and back on (power_cycle_b: half a second off, then traced to trace_b).
+// Those two boards as virtual Unos, reset by each open of their ports as real ones are: A traced
+// from the start, B on a fixed link so that it can be powered off and back on (power_cycle_b:
+// half a second off, then traced to trace_b).
 struct LosableBoards : KnownBoards {
   std::string trace_a, trace_b, link_b;
   VboardProcess a;
@@ -101,14 +102,15 @@ struct LosableBoards : KnownBoards {
         trace_a(e2e::scratch(name + "-a.csv")),
         trace_b(e2e::scratch(name + "-b-after.csv")),
         link_b(e2e::scratch(name + "-b.pty")),
-        a({"--board", "uno", "--eeprom", eeprom_a, "--trace", trace_a, "--quiet", "--no-measure"}),
-        b(std::make_unique<VboardProcess>(
-            std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b, "--quiet", "--no-measure"})) {}
+        a({"--board", "uno", "--auto-reset", "--eeprom", eeprom_a, "--trace", trace_a, "--quiet", "--no-measure"}),
+        b(std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--eeprom", eeprom_b,
+                                                                   "--link", link_b, "--quiet", "--no-measure"})) {}
   void power_cycle_b() {
     b.reset();
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    b = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--eeprom", eeprom_b, "--link", link_b,
-                                                                 "--trace", trace_b, "--quiet", "--no-measure"});
+    b = std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--eeprom", eeprom_b,
+                                                                 "--link", link_b, "--trace", trace_b, "--quiet",
+                                                                 "--no-measure"});
   }
 };
 

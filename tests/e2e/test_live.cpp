@@ -235,9 +235,11 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   Sender keys;
   const std::string link = e2e::scratch("live-unplug.pty");
   const std::string trace_before = e2e::scratch("live-unplug-1.csv"), trace_after = e2e::scratch("live-unplug-2.csv");
+  // As a real Uno: each open of its port resets it, and its bootloader holds it about 1.4 s,
+  // both at the start and when live opens it again.
   auto board = [&](const std::string &trace) {
-    return std::make_unique<VboardProcess>(
-        std::vector<std::string>{"--board", "uno", "--link", link, "--trace", trace, "--quiet", "--no-measure"});
+    return std::make_unique<VboardProcess>(std::vector<std::string>{"--board", "uno", "--auto-reset", "--link", link,
+                                                                    "--trace", trace, "--quiet", "--no-measure"});
   };
   auto vb = board(trace_before);
   stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--midi-api", "jack", "--midi", Sender::kPort, "--port", link, "--quiet"},
@@ -265,10 +267,13 @@ TEST_CASE("live: the board unplugged and back: stepchoir live reconnects and res
   CHECK(live.signal_and_wait(SIGTERM) == 0);
   REQUIRE(vb->stop() == 0);
 
-  const auto before = played_notes(tr::read_trace(trace_before));
+  const tr::Trace before_trace = tr::read_trace(trace_before);
+  CHECK(before_trace.mcu_resets.size() == 1);  // live's open reset it, and waited out its bootloader
+  const auto before = played_notes(before_trace);
   REQUIRE(before.size() == 1);
   CHECK(std::fabs(before[0].pitch - 60) < kPitchToleranceSemitones);
   const tr::Trace after_trace = tr::read_trace(trace_after);
+  CHECK(after_trace.mcu_resets.size() == 1);  // ... and its reopen
   const auto after = played_notes(after_trace);
   const double tolerance_s = kTimeToleranceS + pacing_error_s(after_trace);
   REQUIRE(after.size() == 2);
