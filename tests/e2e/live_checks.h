@@ -1,5 +1,6 @@
 // live_checks.h: what the `stepchoir live` end-to-end tests share: their tolerances, the notes a
-// trace shows, and the pause before the first key (test_live.cpp, test_live_rig.cpp).
+// trace shows, waiting for live to say something, and the pause before the first key
+// (test_live.cpp, test_live_rig.cpp).
 #ifndef STEPCHOIR_TESTS_E2E_LIVE_CHECKS_H
 #define STEPCHOIR_TESTS_E2E_LIVE_CHECKS_H
 
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "analysis.h"
+#include "board/child_process.h"
 #include "trace.h"
 
 namespace live_checks {
@@ -52,6 +54,13 @@ inline double pacing_error_s(const tr::Trace &t) {
       if (at != std::string::npos) total_s += std::stod(line.substr(at + std::strlen(key))) / 1e6;
     }
   return total_s;
+}
+
+// Reads the process's stdout until a line contains text (true) or 20 s pass without one.
+inline bool wait_for_line(stepchoir::ChildProcess &process, const std::string &text) {
+  for (std::string line; process.read_line(&line, 20000);)
+    if (line.find(text) != std::string::npos) return true;
+  return false;
 }
 
 // Called from: each test once `stepchoir live` said it is connected. Lets the JACK graph take

@@ -145,11 +145,12 @@ inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {
 // The step ISR lowers STEP at its first pass after the pulse's end, so a pulse measures more
 // than its setting, by up to a pass: a default one about 6 us, a 5 us one mostly 7.6 us but
 // now and then under 6. Hence the 5 us floor on every pulse, and the medians a microsecond
-// apart at least.
-inline void check_tb6600_pulses(const sc::trace::Trace &t, size_t tb, size_t other) {
+// apart at least. Only the steps from from_cycle on (after a reset: the configuration sent anew).
+inline void check_tb6600_pulses(const sc::trace::Trace &t, size_t tb, size_t other, uint64_t from_cycle = 0) {
   auto widths = [&](size_t m) {
     std::vector<double> w;
-    for (const sc::trace::Step &s : t.motor.at(m).steps) w.push_back(s.width_cycles);
+    for (const sc::trace::Step &s : t.motor.at(m).steps)
+      if (s.rise_cycle >= from_cycle) w.push_back(s.width_cycles);
     return w;
   };
   const std::vector<double> w_tb = widths(tb), w_other = widths(other);

@@ -47,13 +47,6 @@ struct Expected {
   double on_s, off_s;
 };
 
-// Reads the process's stdout until a line contains text (true) or 20 s pass without one.
-bool wait_for_line(stepchoir::ChildProcess &process, const std::string &text) {
-  for (std::string line; process.read_line(&line, 20000);)
-    if (line.find(text) != std::string::npos) return true;
-  return false;
-}
-
 // Sleeps until `t_s` on the steady clock.
 void sleep_until_s(double t_s) {
   const double left = t_s - Sender::now_s();

@@ -1,13 +1,15 @@
 // test_live_rig.cpp: `stepchoir live` and the rig file, end to end on the real firmware through
 // a JACK keyboard: without a port it starts the file's virtual board (a Mega) and homes its
 // switched carriages first (home_on_start); the file names the board, configures its motor
-// (5 us pulses) and transposes it; and a board met before, its crystal 0.5 % fast, plays the
-// keyboard in tune in real time (its crystal from the host's memory, config/board_memory.h).
+// (5 us pulses) and transposes it; a board met before, its crystal 0.5 % fast, plays the
+// keyboard in tune in real time (its crystal from the host's memory, config/board_memory.h);
+// and a board reset with its link up (its button) is set up again and its held note restored.
 #include <catch2/catch.hpp>
 
 #include <signal.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -151,4 +153,57 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
   // not the default 2 us, nor much longer: the step ISR lowers STEP a loop pass after the
   // pulse's end (measured 111 cycles for the 80 asked)
   CHECK(*width < 5 * 16 + 48);
+}
+
+TEST_CASE("live: a board reset with its link up (its button) is set up again from the rig file, and the held "
+          "note sounds again",
+          "[e2e][live][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string trace_path = e2e::scratch("live-button.csv"), config_path = e2e::scratch("live-button.toml");
+  VboardProcess vb({"--board", "uno", "--auto-reset", "--trace", trace_path, "--quiet", "--no-measure"});
+  std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n"
+                             << "[allocation]\npolicy = \"channel\"\n"
+                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
+                             << "[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
+  stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
+  settle();
+  keys.send(stepchoir::note_on(0, 60, 100));  // channel 1: motor 0, held across the reset
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);  // the reset button: the USB bridge stays up
+  REQUIRE(wait_for_line(live, "the board restarted; setting it up again"));
+  REQUIRE(wait_for_line(live, "set up again"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  keys.send(stepchoir::note_off(0, 60));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  CHECK(live.signal_and_wait(SIGTERM) == 0);
+  REQUIRE(vb.stop() == 0);
+
+  const tr::Trace t = tr::read_trace(trace_path);
+  REQUIRE(t.mcu_resets.size() == 2);  // live's open, then the button
+  const uint64_t button = t.mcu_resets[1];
+  // Motor 0: the held note before the reset and again after it, at its pitch.
+  const auto notes = tr::segment_notes(t.motor[0].steps, t.f_cpu_hz);
+  REQUIRE(notes.size() == 2);
+  CHECK(notes[0].end_cycle < button);
+  CHECK(notes[1].start_cycle > button);
+  for (const auto &n : notes) CHECK(std::fabs(n.midi_note - 60) < kPitchToleranceSemitones);
+  CHECK(double(notes[1].end_cycle - notes[1].start_cycle) / t.f_cpu_hz > 0.4);
+  // After the reset the TB6600's 5 us pulses again, as before it: the rig file's configuration
+  // was sent anew (the board's 2 us default measures about 98 cycles, the 5 us about 122: the
+  // step ISR lowers STEP at its first pass after the pulse's end).
+  std::vector<double> before_w, after_w;
+  for (const auto &s : t.motor[0].steps) (s.rise_cycle > button ? after_w : before_w).push_back(s.width_cycles);
+  REQUIRE_FALSE(before_w.empty());
+  REQUIRE_FALSE(after_w.empty());
+  std::sort(before_w.begin(), before_w.end());
+  std::sort(after_w.begin(), after_w.end());
+  INFO("pulses (cycles) before the reset: median " << before_w[before_w.size() / 2] << ", after: shortest "
+                                                   << after_w.front() << ", median " << after_w[after_w.size() / 2]);
+  CHECK(after_w.front() >= 5 * 16);
+  CHECK(std::fabs(after_w[after_w.size() / 2] - before_w[before_w.size() / 2]) < 16);  // a microsecond
 }

@@ -166,6 +166,51 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   check_tb6600_pulses(t, 0, 1);
 }
 
+TEST_CASE("jam: the board reset with its link up (its button) mid-song - the song's player sets it up again from "
+          "the rig file and plays on",
+          "[play][jam][safety][pacing]") {
+  JackServer jack(1024);
+  Sender keys;  // the keyboard, silent
+  const std::string song = write_test_song("jam-button.mid");
+  const std::string trace_path = scratch("jam-button.csv"), rig = scratch("jam-button.toml");
+  // A board met before (a second of sync), reset by the open as an Uno is; motor 0 a TB6600.
+  const std::string eeprom = scratch("jam-button.eeprom"), cache = scratch("jam-button-cache");
+  std::ofstream(eeprom, std::ios::binary) << std::string("\x11\x02\x03\x04\x05\x06\x07\x08", 8);
+  ::mkdir(cache.c_str(), 0700);
+  ::mkdir((cache + "/stepchoir").c_str(), 0700);
+  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.0807060504030211]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
+  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);
+  struct Restore {
+    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
+  } restore;
+  VboardProcess vb({"--board", "uno", "--auto-reset", "--eeprom", eeprom, "--trace", trace_path, "--quiet"});
+  std::ofstream(rig) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n[[boards]]\nport = \""
+                     << vb.pty() << "\"\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
+  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--config", rig, "--song-motors",
+                    "0,1", "--quiet"},
+                   true);
+  std::string said;
+  REQUIRE(wait_for_line(jam, "jam: the song on motors 0,1", &said) != "");
+  // a second of sync and the lead, then under a second into the song: the button
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));
+  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
+  const std::string out = said + jam.read_rest(60000);
+  REQUIRE(jam.wait() == 0);
+  REQUIRE(vb.stop() == 0);
+  INFO(out);
+  CHECK(out.find("reconnects 1") != std::string::npos);
+  const auto t = sc::trace::read_trace(trace_path);
+  REQUIRE(t.mcu_resets.size() == 2);  // jam's open, then the button
+  // The song goes on in its own time once the board is back (its bootloader, a hello, its
+  // motors configured, a second of sync): the notes of the song's last 3.5 s, on time against
+  // each other and in tune.
+  const Plan plan = plan_for(song, 2, 0.5, {1, 2});
+  check_song("jam, after the board's reset", t, plan, plan.duration_s - 3.5);
+  // Motor 0's pulses after the reset: the TB6600's 5 us again, the rig file's setting sent anew
+  // (motor 1 keeps the default).
+  check_tb6600_pulses(t, 0, 1, t.mcu_resets[1]);
+}
+
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {
   JackServer jack(1024);
   Sender keys;

@@ -15,7 +15,7 @@
 //                                 --trace-frames; motor and value unused; width may be empty)
 //   reply,0,2000900,0,12,         the USB bridge passed 12 of the board's bytes to the host
 //                                 (with --trace-frames)
-//   mcu_reset,0,1500000,0,,       the host's open of the port reset the MCU (DTR)
+//   mcu_reset,0,1500000,0,,       the MCU reset: the host's open of the port (DTR) or its button
 //   # end cycle=160000000
 //   # summary motor=0 steps=1234 ...
 // Within one motor and one event kind the rows are in cycle order; read_trace checks that.

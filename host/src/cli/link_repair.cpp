@@ -13,8 +13,10 @@ bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t
   using State = LinkRepair::State;
   const BoardStats &st = session.board_stats(b);
   if (r.state == State::kUp) {
-    if (!st.write_failed.load() && !st.read_failed.load()) return false;
-    say(path + ": link lost; reconnecting");
+    const bool failed = st.write_failed.load() || st.read_failed.load();
+    if (!failed && !st.restarted.load()) return false;
+    say(path + (failed ? ": link lost; reconnecting" : ": the board restarted; setting it up again"));
+    r.restarted = !failed;
     r.state = State::kParking;
   }
   if (r.state == State::kParking) {
@@ -22,24 +24,30 @@ bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t
       note(path + ": the board's threads are still using the lost link; waiting");
       return true;
     }
-    boards[b].reset();
+    if (!r.restarted) boards[b].reset();
     r.state = State::kReopening;
   }
   const auto now = std::chrono::steady_clock::now();
   if (now < r.next_try) return true;
   try {
-    auto board = std::make_unique<Board>(open_link(path));
-    const Caps caps = board->greet(Board::kBootWaitMs, 600);
+    // A board that restarted with its link up keeps its link: asked, it answers once its
+    // firmware runs. Else the port is opened again (a reset and its bootloader, waited out).
+    std::unique_ptr<Board> board = r.restarted ? std::move(boards[b]) : std::make_unique<Board>(open_link(path));
+    const Caps caps = r.restarted ? board->hello() : board->greet(Board::kBootWaitMs, 600);
     if (caps.motor_count != motors)
       throw std::runtime_error("it has " + std::to_string(caps.motor_count) + " motors, not " + std::to_string(motors));
     if (settings) configure_motors(*board, caps, *settings, path);
     session.attach_link(b, &board->link());
     boards[b] = std::move(board);
     r.state = State::kUp;
-    say(path + ": reconnected");
+    say(path + (r.restarted ? ": set up again" : ": reconnected"));
     return false;
   } catch (const std::exception &e) {
     note(path + ": " + e.what());
+    if (r.restarted) {  // it does not answer on the old link: open the port again
+      r.restarted = false;
+      boards[b].reset();
+    }
     r.next_try = now + std::chrono::milliseconds(500);
     return true;
   }

@@ -25,8 +25,13 @@ namespace stepchoir {
 // its motors again (the open reset it: it runs on defaults) and hands the session the new link,
 // which restores what should be sounding. One step a call, so the caller's console keeps its
 // keys meanwhile.
+//
+// A board that restarted with its link up (BoardStats::restarted: its reset button) goes the
+// same way without the reopen: its threads parked, it is asked for its capabilities on the
+// link it has, configured again and handed back, which restores what should be sounding.
 struct LinkRepair {
   enum class State : uint8_t { kUp, kParking, kReopening } state = State::kUp;
+  bool restarted = false;  // the board restarted, its link up: the link is kept
   std::chrono::steady_clock::time_point next_try{};
 };
 

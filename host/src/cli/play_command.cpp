@@ -369,9 +369,10 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       // A board back after a loss or a reset has its power-up defaults: the rig file's motors
       // are configured again before the song goes on (a TB6600's pulse, travel, soft limits).
       // Jam: the live path reopens the port and configures the board (the link keeper, below);
-      // the song finds it again through the session once it is there.
+      // the song finds it again through the session once it is there. A board that restarted
+      // with its link up (its reset button) only the song's player sees: it configures it.
       const BoardSettings *settings = boards[b].settings;
-      if (!jamming && settings)
+      if (settings)
         po.on_reopen = [settings, path](Board &board, const Caps &caps) { configure_motors(board, caps, *settings, path); };
       if (!jamming) {
         opener = [path] { return open_link(path); };

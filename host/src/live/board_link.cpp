@@ -139,6 +139,7 @@ void BoardLink::attach(Link *link) {
   board_.link = link;
   stats_.write_failed.store(false);
   stats_.read_failed.store(false);
+  stats_.restarted.store(false);
   stats_.last_status_us.store(0);
   stats_.reconnects.fetch_add(1);
   attach_gen_.store(detach_gen_.load(), std::memory_order_release);
@@ -343,7 +344,7 @@ long BoardLink::read_replies(uint8_t *out, size_t len, int timeout_ms) {
   return static_cast<long>(n);
 }
 
-// The reader thread: replies -> stats (errors, status). Not on the real-time path.
+// The reader thread: replies -> stats (errors, status, a restart). Not on the real-time path.
 void BoardLink::reader_loop() {
   sc::FrameDecoder decoder;
   uint8_t buf[256];
@@ -378,6 +379,8 @@ void BoardLink::reader_loop() {
       if (p[0] == sc::kMsgError && len >= 4) {
         stats_.board_errors.fetch_add(1, std::memory_order_relaxed);
         stats_.last_error.store(p[1], std::memory_order_relaxed);
+      } else if (p[0] == sc::kMsgCaps && !forward_) {
+        stats_.restarted.store(true, std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgStatus) {
         try {
           const Status s = parse_status(p, len);

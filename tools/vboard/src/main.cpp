@@ -33,6 +33,7 @@ namespace {
 using namespace vboard;
 
 volatile sig_atomic_t g_stop_signal = 0;
+volatile sig_atomic_t g_reset_button = 0;  // SIGUSR1: the board's reset button was pressed
 
 // Simulated time per loop chunk: the pty is polled and the trace flushed between chunks.
 constexpr uint64_t kChunkUs = 20;
@@ -57,6 +58,9 @@ constexpr uint64_t kTraceFlushNs = 250 * 1000 * 1000;
 
 // SIGINT/SIGTERM/SIGHUP: ask the loop to stop.
 void on_stop_signal(int signal_number) { g_stop_signal = signal_number; }
+// SIGUSR1: the reset button (or a brown-out): the MCU restarts through its bootloader while
+// the USB bridge, and so the host's link, stays up.
+void on_reset_signal(int) { g_reset_button = 1; }
 
 // Monotonic wall clock in ns.
 uint64_t monotonic_ns() {
@@ -137,6 +141,8 @@ void install_signals() {
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
   sigaction(SIGHUP, &action, nullptr);
+  action.sa_handler = &on_reset_signal;
+  sigaction(SIGUSR1, &action, nullptr);
   signal(SIGPIPE, SIG_IGN);
 }
 
@@ -180,13 +186,18 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
   while (!g_stop_signal && avr.cycle() < end_cycle) {
     // Once a millisecond (system calls: every chunk would cost the simulation a fifth of its
     // speed): a board started by a program (stepchoir play, render) goes when it goes, even
-    // killed; the host's open of the pty resets the board.
+    // killed; the host's open of the pty resets the board, and so does SIGUSR1 (its button).
     const bool check = ++chunk % kCheckChunks == 0;
     if (check && options.exit_with_parent && getppid() != parent) g_stop_signal = SIGHUP;
     if (check && link.take_host_open() && options.auto_reset) {
       avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
       trace.mcu_reset(avr.cycle());
       ++result.host_resets;
+    }
+    if (check && g_reset_button) {
+      g_reset_button = 0;
+      avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
+      trace.mcu_reset(avr.cycle());
     }
     avr.leave_bootloader_when_done();
     // Host bytes are stamped, when pacing, with the simulated time of their arrival on the wall

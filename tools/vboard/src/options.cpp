@@ -91,7 +91,8 @@ const char *usage_text() {
          "  --trace-frames      also trace when each host frame's first and last byte reach the UART\n"
          "  --no-measure        skip per-instruction interrupt/ISR accounting (faster)\n"
          "  --exit-with-parent  stop (as on SIGTERM) once the process that started it is gone\n"
-         "  --quiet             no summary on stderr\n";
+         "  --quiet             no summary on stderr\n"
+         "SIGUSR1 presses its reset button: the MCU restarts through its bootloader, the link stays up.\n";
 }
 
 // Parses argv.

@@ -51,7 +51,7 @@ class TraceWriter {
   void frame_end(uint64_t cycle, uint64_t span_cycles);
   // reply,0,CYCLE,0,BYTES, : the USB bridge passed BYTES of the board's to the host.
   void reply(uint64_t cycle, uint64_t bytes);
-  // mcu_reset,0,CYCLE,0,, : the host's open reset the MCU (DTR).
+  // mcu_reset,0,CYCLE,0,, : the host's open reset the MCU (DTR), or its reset button (SIGUSR1).
   void mcu_reset(uint64_t cycle);
 
   // Rows written so far.
