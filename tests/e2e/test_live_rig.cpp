@@ -1,6 +1,6 @@
 // test_live_rig.cpp: `stepchoir live` and the rig file, end to end on the real firmware through
-// a JACK keyboard: without a port it starts the file's virtual board (a Mega) and homes its
-// switched carriages first (home_on_start); the file names the board, configures its motor
+// a JACK keyboard: without a port it starts the file's virtual boards (a Mega and an Uno, one
+// pool) and homes their switched carriages first (home_on_start); the file names the board, configures its motor
 // (5 us pulses) and transposes it; a board met before, its crystal 0.5 % fast, plays the
 // keyboard in tune in real time (its crystal from the host's memory, config/board_memory.h);
 // and a board reset with its link up (its button) is set up again and its held note restored.
@@ -30,64 +30,78 @@
 namespace tr = sc::trace;
 using namespace live_checks;
 
-TEST_CASE("live: without a port it starts the rig file's virtual board, homes its switched carriages first, "
-          "and plays on it",
+TEST_CASE("live: without a port it starts the rig file's virtual boards, a Mega and an Uno, homes their "
+          "switched carriages first, and plays on them",
           "[e2e][live][pacing]") {
   JackServer jack(1024);
   Sender keys;
-  const std::string trace_path = e2e::scratch("live-own-board.csv"), config_path = e2e::scratch("live-own-board.toml");
-  std::remove(trace_path.c_str());
-  const int64_t travel = 3200;  // the virtual board's rail
+  const std::string config_path = e2e::scratch("live-own-board.toml");
+  const std::string trace_mega = e2e::scratch("live-own-board.csv"), trace_uno = e2e::scratch("live-own-board-2.csv");
+  std::remove(trace_mega.c_str());
+  std::remove(trace_uno.c_str());
+  const int64_t travel = 3200;  // the virtual boards' rails
   {
-    // A Mega with no port (live starts it), home_on_start: its three switched carriages go to
-    // the middle before the keyboard plays.
+    // Two boards with no port (live starts both, one pool), home_on_start: each board's three
+    // switched carriages go to the middle before the keyboard plays.
     std::ofstream f(config_path);
-    f << "home_on_start = true\n[[boards]]\nboard = \"mega\"\n";
-    for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << travel << "\nhome_speed = 40.0\n";
+    f << "home_on_start = true\n";
+    for (const char *kind : {"mega", "uno"}) {
+      f << "[[boards]]\nboard = \"" << kind << "\"\n";
+      for (int m = 0; m < 4; ++m) f << "[[boards.motors]]\ntravel_steps = " << travel << "\nhome_speed = 40.0\n";
+    }
   }
   stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--midi-api", "jack", "--midi",
-                                Sender::kPort, "--vboard-trace", trace_path, "--quiet"},
+                                Sender::kPort, "--vboard-trace", trace_mega, "--quiet"},
                                true);
   std::string said, homing, line;
-  REQUIRE(live.read_line(&said, 30000));
-  while (live.read_line(&line, 30000) && line.find("-> 5 motors") == std::string::npos) homing += line + "\n";
-  INFO("stepchoir live said: " << said << "\n" << homing << line);
-  CHECK(said.rfind("live: no --port: playing on the virtual board (mega, bundled firmware)", 0) == 0);
-  REQUIRE(line.find("-> 5 motors") != std::string::npos);
-  for (int m = 0; m < 3; ++m)
-    CHECK(homing.find("motor " + std::to_string(m) + ": in the middle, position 1600") != std::string::npos);
+  while (live.read_line(&line, 30000) && line.find("-> 9 motors") == std::string::npos)
+    (line.rfind("live: no --port", 0) == 0 ? said : homing) += line + "\n";
+  INFO("stepchoir live said: " << said << homing << line);
+  CHECK(said.find("live: no --port: playing on the virtual board (mega, bundled firmware)") == 0);
+  CHECK(said.find("live: no --port: playing on the virtual board (uno, bundled firmware)") != std::string::npos);
+  REQUIRE(line.find("-> 9 motors") != std::string::npos);
+  for (int m = 0; m < 3; ++m) {
+    const std::string done = "motor " + std::to_string(m) + ": in the middle, position 1600";
+    CHECK(homing.find(done) != homing.rfind(done));  // on both boards
+  }
   CHECK(homing.find("motor 3 has no end switch: not homed") != std::string::npos);
   settle();
   const double on_s = keys.send(stepchoir::note_on(0, 69, kSoft));
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const double off_s = keys.send(stepchoir::note_off(0, 69));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  CHECK(live.signal_and_wait(SIGTERM) == 0);  // stops its virtual board, which writes the trace
+  CHECK(live.signal_and_wait(SIGTERM) == 0);  // stops its virtual boards, which write their traces
 
-  const tr::Trace trace = tr::read_trace(trace_path);
+  const tr::Trace trace = tr::read_trace(trace_mega), uno = tr::read_trace(trace_uno);
   CHECK(trace.board == "mega");
-  const auto played = played_notes(trace);
-  for (const Played &p : played) UNSCOPED_INFO("played " << p.pitch << " on motor " << p.motor << " for " << p.end_s - p.start_s << " s");
-  // The key: the last thing played, once, after the homing moves.
-  REQUIRE_FALSE(played.empty());
-  const Played &key = played.back();
-  CHECK(std::fabs(key.pitch - 69) < kPitchToleranceSemitones);
-  for (size_t i = 0; i + 1 < played.size(); ++i) CHECK(std::fabs(played[i].pitch - 69) >= kPitchToleranceSemitones);
-  CHECK(std::fabs((key.end_s - key.start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_error_s(trace));
+  CHECK(uno.board == "uno");
+  // The key: one note at its pitch, on one of the pool's motors (either board), after the
+  // homing moves.
+  std::vector<std::pair<const tr::Trace *, Played>> at_69;
+  for (const tr::Trace *t : {&trace, &uno})
+    for (const Played &p : played_notes(*t)) {
+      UNSCOPED_INFO(t->board << ": played " << p.pitch << " on motor " << p.motor << " for " << p.end_s - p.start_s << " s");
+      if (std::fabs(p.pitch - 69) < kPitchToleranceSemitones) at_69.push_back({t, p});
+    }
+  REQUIRE(at_69.size() == 1);
+  const tr::Trace &keyed = *at_69[0].first;
+  const Played key = at_69[0].second;
+  CHECK(std::fabs((key.end_s - key.start_s) - (off_s - on_s)) < kTimeToleranceS + pacing_error_s(keyed));
   // Homing from the middle: each switched carriage reached the far end (the rail measured) and
   // stood in the middle when the key came.
-  for (int m = 0; m < 3; ++m) {
-    INFO("motor " << m);
-    int64_t position = travel / 2;
-    bool reached_far_end = false;
-    for (const auto &step : trace.motor[size_t(m)].steps) {
-      if (trace.board_seconds(step.rise_cycle) >= key.start_s) break;
-      position = step.position;
-      reached_far_end = reached_far_end || step.position == travel;
+  for (const tr::Trace *t : {&trace, &uno})
+    for (int m = 0; m < 3; ++m) {
+      INFO(t->board << " motor " << m);
+      int64_t position = travel / 2;
+      bool reached_far_end = false;
+      for (const auto &step : t->motor[size_t(m)].steps) {
+        if (t == &keyed && keyed.board_seconds(step.rise_cycle) >= key.start_s) break;
+        position = step.position;
+        reached_far_end = reached_far_end || step.position == travel;
+      }
+      CHECK(reached_far_end);
+      CHECK(position == travel / 2);
     }
-    CHECK(reached_far_end);
-    CHECK(position == travel / 2);
-  }
 }
 
 TEST_CASE("live: a configuration file names the board, configures its motor and transposes it, and a board "

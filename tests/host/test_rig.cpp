@@ -11,6 +11,7 @@
 #include <fstream>
 #include <string>
 
+#include "board/vboard_child.h"
 #include "config/board_memory.h"
 #include "config/rig.h"
 #include "live/realtime_setup.h"
@@ -121,6 +122,16 @@ TEST_CASE("rig: without a port the virtual boards are --vboard's, else the file'
   CHECK(rig_vboards(rig, {"uno"}) == std::vector<std::string>{"uno"});     // the command line wins
   CHECK(rig_vboards(Rig{}, {}) == std::vector<std::string>{"uno"});
   CHECK(rig_port(rig, "").empty());  // no port in the file: the commands start its virtual boards
+}
+
+TEST_CASE("rig: several virtual boards, each on its own link and trace beside the first's", "[config]") {
+  CHECK(vboard_trace_path("/tmp/t.csv", 0) == "/tmp/t.csv");
+  CHECK(vboard_trace_path("/tmp/t.csv", 1) == "/tmp/t-2.csv");
+  CHECK(vboard_trace_path("/tmp/t", 2) == "/tmp/t-3.csv");
+  CHECK(vboard_trace_path("", 1).empty());  // no trace asked: none for any
+  const std::string first = vboard_link_path("live", 0), second = vboard_link_path("live", 1);
+  CHECK(first.rfind("/tmp/stepchoir-live-", 0) == 0);
+  CHECK(second == first.substr(0, first.size() - 4) + "-2.pty");
 }
 
 TEST_CASE("rig: a song command plays on --port, else the file's ports, unless a virtual board was asked for",

@@ -9,6 +9,7 @@
 #include <climits>
 #include <csignal>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 namespace stepchoir {
@@ -57,5 +58,15 @@ VirtualBoard::VirtualBoard(const std::string &board, const std::string &link_pat
 VirtualBoard::~VirtualBoard() { stop(); }
 
 void VirtualBoard::stop() { child_.signal_and_wait(SIGTERM); }
+
+std::string vboard_link_path(const std::string &cmd, size_t k) {
+  return "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + (k ? "-" + std::to_string(k + 1) : "") + ".pty";
+}
+
+std::string vboard_trace_path(const std::string &trace, size_t k) {
+  if (!k || trace.empty()) return trace;
+  const bool csv = trace.size() > 4 && trace.compare(trace.size() - 4, 4, ".csv") == 0;
+  return (csv ? trace.substr(0, trace.size() - 4) : trace) + "-" + std::to_string(k + 1) + ".csv";
+}
 
 }  // namespace stepchoir

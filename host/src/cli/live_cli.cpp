@@ -99,28 +99,33 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
   const Policy policy = o.policy.empty() ? cfg.policy : parse_policy(o.policy);
   std::vector<std::string> ports = rig_ports(rig, o.ports, !o.vboard_board.empty() || !o.vboard_trace.empty());
 
-  std::unique_ptr<VirtualBoard> vboard;
+  // No port: the virtual boards of --vboard (one), else of the rig file (config/rig.h).
+  std::vector<std::unique_ptr<VirtualBoard>> vboards;
   if (ports.empty()) {
-    const std::string link = "/tmp/stepchoir-live-" + std::to_string(::getpid()) + ".pty";
-    const std::string kind = o.vboard_board.empty() ? rig_vboards(rig, {})[0] : o.vboard_board;
-    vboard = std::make_unique<VirtualBoard>(kind, link, o.vboard_trace, std::vector<std::string>{});
-    std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n", kind.c_str(),
-                link.c_str());
-    ports.push_back(link);
+    const std::vector<std::string> kinds =
+        rig_vboards(rig, o.vboard_board.empty() ? std::vector<std::string>{} : std::vector<std::string>{o.vboard_board});
+    for (size_t k = 0; k < kinds.size(); ++k) {
+      const std::string link = vboard_link_path("live", k);
+      vboards.push_back(std::make_unique<VirtualBoard>(kinds[k], link, vboard_trace_path(o.vboard_trace, k),
+                                                       std::vector<std::string>{}));
+      std::printf("live: no --port: playing on the virtual board (%s, bundled firmware) at %s\n", kinds[k].c_str(),
+                  link.c_str());
+      ports.push_back(link);
+    }
   }
   std::vector<std::unique_ptr<Board>> boards;
   std::vector<LiveBoard> pool;
   std::vector<SetlistBoard> setlist_boards;
   for (size_t b = 0; b < ports.size(); ++b) {
     boards.push_back(std::make_unique<Board>(open_link(ports[b])));
-    const Caps caps = vboard ? boards.back()->hello() : boards.back()->greet();  // its own board does not reset
+    const Caps caps = vboards.empty() ? boards.back()->greet() : boards.back()->hello();  // its own do not reset
     const BoardSettings *settings = board_settings(rig, ports[b], b);
     if (settings) configure_motors(*boards.back(), caps, *settings, ports[b]);
     if (cfg.home_on_start) home_board(*boards.back(), caps, settings, ports[b], {}, say_line);
     // A board met before (config/board_memory.h): the keyboard plays in tune with its crystal,
     // and a setlist song starts from its remembered rate.
     std::optional<BoardRecord> known;
-    if (!vboard) {
+    if (vboards.empty()) {
       if (const std::optional<uint64_t> id = identify_board(*boards.back())) {
         try {
           known = recall_board(*id);

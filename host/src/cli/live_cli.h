@@ -20,7 +20,7 @@ struct LiveOptions {
   std::vector<std::string> ports;        // boards; none (and none in the file): the virtual board
   std::string policy;                    // poly | channel | mono
   std::string vboard_board;              // board the virtual board simulates ("": the rig
-                                         // file's first, config/rig.h rig_vboards)
+                                         // file's, one per board: config/rig.h rig_vboards)
   std::string vboard_trace;              // the virtual board's trace CSV ("" = none)
   bool quiet = false;                    // no console, no status line
   bool plain = false;                    // the status line even on a terminal (no console)

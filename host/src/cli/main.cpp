@@ -205,7 +205,7 @@ int main(int argc, char **argv) {
       ->check(CLI::IsMember({"poly", "channel", "mono"}));
   live->add_option("--midi-api", live_opt.midi_api, "MIDI API (default alsa)")->check(CLI::IsMember({"alsa", "jack"}));
   live->add_option("--vboard", live_opt.vboard_board,
-                   "Board the virtual board simulates (without --port; default: the rig file's first board's, else uno)")
+                   "Board the virtual board simulates (without --port; default: the rig file's boards, else uno)")
       ->check(CLI::IsMember(stepchoir::kBoardKinds));
   live->add_option("--vboard-trace", live_opt.vboard_trace,
                    "Without --port: write the virtual board's trace here (stepchoir-render makes it a WAV)");

@@ -203,10 +203,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (!vboard_link.empty()) extra.insert(extra.end(), {"--link-model", vboard_link});
       const std::vector<std::string> vboards = rig_vboards(rig, this->vboards);
       for (size_t k = 0; k < vboards.size(); ++k) {
-        const std::string n = k ? "-" + std::to_string(k + 1) : "";
-        const std::string link_path = "/tmp/stepchoir-" + cmd + "-" + std::to_string(::getpid()) + n + ".pty";
-        std::string t = trace;
-        if (k && !t.empty()) t = (t.size() > 4 && t.substr(t.size() - 4) == ".csv" ? t.substr(0, t.size() - 4) : t) + n + ".csv";
+        const std::string link_path = vboard_link_path(cmd, k), t = vboard_trace_path(trace, k);
         vbs.push_back(std::make_unique<VirtualBoard>(vboards[k], link_path, t, extra));
         traces.push_back(t);
         if (!rendering)

@@ -307,8 +307,8 @@ on = false
 
 
 # One [[boards]] table per board, in order: their motors form one pool. A command without --port
-# uses the file's ports; with no port in the file either, play and jam start a virtual board for
-# each [[boards]] table (render always does), live one for the first, each with its motors.
+# uses the file's ports; with no port in the file either, live, play and jam start a virtual
+# board for each [[boards]] table (render always does), each with its motors.
 # [[boards]]
 # port = "/dev/ttyACM0"
 # board = "uno"              # uno or mega: what its virtual board simulates (--vboard wins)

@@ -56,7 +56,7 @@ std::vector<std::string> rig_ports(const Rig &rig, const std::vector<std::string
 
 // The boards the virtual boards simulate when a command has no port at all: `given` (--vboard)
 // if not empty, else each [[boards]] entry's board, else one Uno. Called from: play, render, jam,
-// live (which takes the first).
+// live.
 std::vector<std::string> rig_vboards(const Rig &rig, const std::vector<std::string> &given);
 
 // Sends the configuration and the driver settings of every motor `settings` lists (up to the
