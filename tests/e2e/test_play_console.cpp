@@ -200,9 +200,11 @@ TEST_CASE("play: on two boards, the first lost for good, the console lives on fr
   auto a = std::make_unique<VboardProcess>(
       std::vector<std::string>{"--board", "uno", "--link", link_a, "--quiet", "--no-measure"});
   VboardProcess b({"--board", "uno", "--trace", trace_b, "--quiet", "--no-measure"});
-  // Half tempo: 86 s, so that the song plays on well past the player's retries of board A.
-  TmuxSession tmux(
-      stepchoir_in_pane("play " + kBlues + " --tempo 0.5 --port " + link_a + " --port " + b.pty(), false), 132, 24);
+  // Half tempo: 86 s, so that the song plays on well past the player's retries of board A (5 s).
+  TmuxSession tmux(stepchoir_in_pane("play " + kBlues + " --tempo 0.5 --reconnect-s 5 --port " + link_a + " --port " +
+                                         b.pty(),
+                                     false),
+                   132, 24);
   std::string screen = wait_playing(tmux, 2);
   {
     INFO("the screen:\n" << screen);
@@ -210,7 +212,7 @@ TEST_CASE("play: on two boards, the first lost for good, the console lives on fr
   }
   a.reset();  // board A gone, for good
   const std::string lost = link_a + " is lost: its notes are dropped, the other boards play on";
-  screen = tmux.wait_for(lost, 45);
+  screen = tmux.wait_for(lost, 20);
   const double lost_s = now_s(), lost_at = position_s(screen);
   expect_text(screen, lost);
   CHECK(link_row(screen, "pc-gone-a.pty").find(" lost ") != std::string::npos);

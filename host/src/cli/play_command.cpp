@@ -114,6 +114,9 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
       ->check(CLI::Range(20.0, 5000.0))->default_str(std::to_string(int(PlayCommand::kLeadMs)));
   c->play->add_option("--sync-s", c->sync_s, "Clock sync before the first note")
       ->check(CLI::Range(0.1, 30.0))->default_val(c->sync_s);
+  c->play->add_option("--reconnect-s", c->reconnect_s,
+                      "A lost board is opened again this long while the song plays on (0: given up at once)")
+      ->check(CLI::Range(0.0, 3600.0))->default_str(std::to_string(int(PlayerOptions{}.reconnect_s)));
   c->play->add_flag("--loop", c->loop, "Start again at the end (Ctrl-C stops)");
   c->play->add_flag("--no-auto-tune", c->no_auto_tune, "Periods from the board's nominal clock, not the measured one");
   c->play->add_flag("--quiet,-q", c->quiet, "No console and no progress line");
@@ -352,6 +355,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       po.board_time = rendering;
       po.lead_s = rendering ? kRenderLeadS : (lead_ms > 0 ? lead_ms : midi_clock ? kClockLeadMs : kLeadMs) / 1e3;
       po.sync_s = sync_s;
+      if (reconnect_s >= 0) po.reconnect_s = reconnect_s;
       po.loop = loop && !rendering;
       po.auto_tune = !no_auto_tune;
       po.a4_hz = rig.config.a4_hz;

@@ -35,6 +35,7 @@ struct PlayCommand {
   std::vector<std::string> vboards;  // without ports: the virtual boards to start (rig_vboards)
   std::string vboard_trace, vboard_link;    // vboard_link: empty = its default
   double clock_ppm = 0, sync_s = 1.0;
+  double reconnect_s = -1;  // play: a lost board is retried this long (< 0: PlayerOptions' default)
   double lead_ms = 0;  // 0: kLeadMs, or kClockLeadMs following a MIDI clock
   bool loop = false, quiet = false, no_auto_tune = false;
   int dry_run_motors = 0;  // > 0: print the plan for that many motors, play nothing
