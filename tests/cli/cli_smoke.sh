@@ -59,6 +59,12 @@ if "$bin/stepchoir" config --check "$dir/bad.toml" 2>"$dir/err.txt"; then
   echo "config --check of a broken string should fail"; exit 1
 fi
 grep -q "bad.toml:2:10: " "$dir/err.txt"
+# A file of virtual boards only: a one-board command says it needs a port.
+printf '[[boards]]\nboard = "mega"\n' > "$dir/virtual.toml"
+if "$bin/stepchoir" hello --config "$dir/virtual.toml" 2>"$dir/err.txt"; then
+  echo "hello with no port anywhere should fail"; exit 1
+fi
+grep -q "virtual.toml names no board port (its boards are virtual: live, play, jam and render start them" "$dir/err.txt"
 # Without a file it checks the one commands read: the default location, or says there is none.
 mkdir -p "$dir/xdg/stepchoir"
 cp "$dir/rig.toml" "$dir/xdg/stepchoir/stepchoir.toml"

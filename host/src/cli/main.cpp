@@ -266,7 +266,11 @@ int main(int argc, char **argv) {
     if (port.empty())
       throw std::runtime_error("no --port, and " +
                                (rig.path.empty() ? "no configuration file (" + stepchoir::default_config_path() + ")"
-                                                 : rig.path + " names no board port"));
+                                                 : rig.path + " names no board port" +
+                                                       (rig.config.boards.empty()
+                                                            ? std::string()
+                                                            : " (its boards are virtual: live, play, jam and render "
+                                                              "start them; this command needs a port)")));
     stepchoir::Board board(stepchoir::open_link(port));
     if (app.got_subcommand(panic)) {
       // At once: a board that the open did not reset stops now. One that it reset is silent in
