@@ -179,8 +179,8 @@ inline bool behind_bridge(const sc::trace::Trace &t) {
 // so notes are not all tuned alike: docs/decisions/023-player-follows-refined-clock.md).
 // pitch: kSettled adds every note within 0.25 cent of the others (a fit followed before it
 // settled moves a short song's notes 0.32-0.35 cent apart); kOneRate (a song that keeps the
-// rate of its first second: live's setlist) holds the notes within 0.05 cent of one another
-// instead of each within 0.5 cent (their common pitch is as far off as that rate).
+// rate of its first second: live's setlist) holds the notes within 0.05 cent of one another,
+// and each within 2 cents instead of 0.5 (their common pitch is as far off as that rate).
 // Returns the figures.
 enum class PitchCheck { kInTune, kSettled, kOneRate };
 inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace &t, const Plan &plan,
@@ -196,6 +196,7 @@ inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace
   CHECK(pct(c.onset_err_us, 1.0) < (bridge ? 1000.0 : 250.0));
   if (pitch == PitchCheck::kOneRate) {
     CHECK(c.max_spread_cents < 0.05);
+    CHECK(c.max_cents < 2.0);  // that rate from a second of round trips, a crystal's prior
   } else {
     CHECK(c.max_cents < 0.5);
     if (pitch == PitchCheck::kSettled) CHECK(c.max_spread_cents < 0.25);

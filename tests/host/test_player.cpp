@@ -127,7 +127,7 @@ TEST_CASE("clock: through a 16U2 bridge's 1 ms frames and 4 ms batches the rate 
     ClockSync sync(16e6);
     BridgeModel link{ppm};
     double worst_after_2s = 0, worst_after_10s = 0;
-    for (int i = 0; i < 1500; ++i) {  // 30 s at the player's 50 round trips a second
+    for (int i = 0; i < 1500; ++i) {  // 30 s at 50 round trips a second (the player makes 100)
       const double t = 1e6 + i * 20000.0 + (i % 7) * 131.0;
       REQUIRE(link.round_trip(sync, t));
       const double err = std::fabs(cents_of_ppm(sync.ppm() - ppm));

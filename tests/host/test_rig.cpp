@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -110,6 +111,11 @@ TEST_CASE("rig: a port gets its own [[boards]] entry, else the entry in its plac
   there.config = parse_config("[[boards]]\nport = \"/dev/null\"\n[[boards.motors]]\ntranspose = 1\n", "there.toml");
   CHECK(board_settings(there, "/dev/C", 0) == nullptr);
   CHECK(board_settings(there, "/dev/null", 0) == &there.config.boards[0]);
+  const std::string link = "/tmp/stepchoir-test-rig-null";  // another name for the same file
+  ::unlink(link.c_str());
+  REQUIRE(::symlink("/dev/null", link.c_str()) == 0);
+  CHECK(board_settings(there, link, 0) == &there.config.boards[0]);
+  ::unlink(link.c_str());
   CHECK(rig_port(rig, "") == "/dev/A");
   CHECK(board_settings(Rig{}, "/dev/A", 0) == nullptr);
 }
@@ -195,6 +201,8 @@ TEST_CASE("board memory: the keyboard's clock is F_CPU, or as the board's rememb
   CHECK(crystal_hz(16000000, std::nullopt) == 16000000u);  // a board met for the first time
   CHECK(crystal_hz(16000000, BoardRecord{"uno", 5000.0, 5.0}) == 16080000u);
   CHECK(crystal_hz(16000000, BoardRecord{"uno", -1500.25, 5.0}) == 15975996u);  // to the hertz
+  CHECK(crystal_hz(16000000, BoardRecord{"uno", 1e7, 5.0}) == 16000000u);        // not a crystal's: left aside
+  CHECK(crystal_hz(16000000, BoardRecord{"uno", std::nan(""), 5.0}) == 16000000u);
 }
 
 TEST_CASE("board memory: a broken file names its line and column", "[config]") {

@@ -12,12 +12,6 @@ namespace stepchoir {
 
 // The virtual board as a child process, for `live`, `play` and `jam` without --port, and
 // `render`. Stopped (SIGTERM) when destroyed.
-// Where the k-th (from 0) of a command's virtual boards is reached: /tmp/stepchoir-CMD-PID.pty,
-// the others -2, -3, ... And its trace: `trace` for the first, the others beside it (T.csv ->
-// T-2.csv, ...); "" (no trace) stays "". Called from: play, render, jam, live.
-std::string vboard_link_path(const std::string &cmd, size_t k);
-std::string vboard_trace_path(const std::string &trace, size_t k);
-
 class VirtualBoard {
  public:
   // Called from: the commands. Starts <dir of this program>/stepchoir-vboard on link_path (with
@@ -38,6 +32,12 @@ class VirtualBoard {
   std::string path_;
   ChildProcess child_;
 };
+
+// Where the k-th (from 0) of a command's virtual boards is reached: /tmp/stepchoir-CMD-PID.pty,
+// the others -2, -3, ... And its trace: `trace` for the first, the others beside it (T.csv ->
+// T-2.csv, ...); "" (no trace) stays "". Called from: play, render, jam, live.
+std::string vboard_link_path(const std::string &cmd, size_t k);
+std::string vboard_trace_path(const std::string &trace, size_t k);
 
 }  // namespace stepchoir
 

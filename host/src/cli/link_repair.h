@@ -28,7 +28,8 @@ namespace stepchoir {
 //
 // A board that restarted with its link up (BoardStats::restarted: its reset button) goes the
 // same way without the reopen: its threads parked, it is asked for its capabilities on the
-// link it has, configured again and handed back, which restores what should be sounding.
+// link it has, configured again and handed back, which restores what should be sounding. If it
+// does not answer there, its port is opened again as after a loss.
 struct LinkRepair {
   enum class State : uint8_t { kUp, kParking, kReopening } state = State::kUp;
   bool restarted = false;  // the board restarted, its link up: the link is kept

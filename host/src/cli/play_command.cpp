@@ -16,7 +16,6 @@
 #include <utility>
 
 #include "board/board.h"
-#include "board/child_process.h"
 #include "board/link.h"
 #include "board/vboard_child.h"
 #include "cli/jam_console.h"
@@ -25,6 +24,7 @@
 #include "cli/plan_options.h"
 #include "cli/play_console.h"
 #include "cli/play_report.h"
+#include "cli/render_output.h"
 #include "config/board_memory.h"
 #include "config/config.h"
 #include "config/rig.h"
@@ -49,19 +49,6 @@ std::atomic<bool> g_pause{false};
 // host stalled for up to half a second still keeps ahead of it.
 constexpr double kRenderSpeed = 3.0;
 constexpr double kRenderLeadS = 1.5;
-
-// Runs `prog` beside this program with args, waits; its exit status (or -1).
-// Called from: render (stepchoir-render).
-int run_sibling(const std::string &vboard_path, const std::string &prog, std::vector<std::string> args) {
-  args.insert(args.begin(), vboard_path.substr(0, vboard_path.rfind('/')) + "/" + prog);
-  try {
-    ChildProcess::Options options;
-    options.inherit_stdout = true;
-    return ChildProcess(args, options).wait();
-  } catch (const std::runtime_error &) {
-    return -1;
-  }
-}
 
 }  // namespace
 
@@ -369,12 +356,24 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       const std::string path = boards[b].path;
       // A board back after a loss or a reset has its power-up defaults: the rig file's motors
       // are configured again before the song goes on (a TB6600's pulse, travel, soft limits).
-      // Jam: the live path reopens the port and configures the board (the link keeper, below);
-      // the song finds it again through the session once it is there. A board that restarted
-      // with its link up (its reset button) only the song's player sees: it configures it.
+      // Jam: the live path reopens the port and configures the board (the link keeper, below:
+      // a new link attached); the song finds it again through the session once it is there. A
+      // board that restarted with its link up (its reset button) only the song's player sees: it
+      // configures it.
       const BoardSettings *settings = boards[b].settings;
-      if (settings)
+      if (settings && !jamming)
         po.on_reopen = [settings, path](Board &board, const Caps &caps) { configure_motors(board, caps, *settings, path); };
+      else if (settings)
+        po.on_reopen = [settings, path, s = session.get(), b,
+                        seen = std::make_shared<uint32_t>(session->board_stats(b).reconnects.load())](
+                           Board &board, const Caps &caps) {
+          const uint32_t attached = s->board_stats(b).reconnects.load();
+          if (attached != *seen) {
+            *seen = attached;  // the keeper's new link: configured already
+            return;
+          }
+          configure_motors(board, caps, *settings, path);
+        };
       if (!jamming) {
         opener = [path] { return open_link(path); };
       } else {
@@ -494,26 +493,7 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       all_ok = all_ok && ok[b];
     }
     if (!all_ok) return 1;
-    if (rendering) {
-      // One WAV and one piano roll of every board's motors: each trace placed by its first note.
-      std::vector<std::string> args;
-      for (size_t k = 0; k < vbs.size(); ++k) {
-        vbs[k]->stop();
-        if (vbs.size() > 1 && first_note_s[k] < 0) continue;  // a board that played nothing
-        args.push_back(traces[k]);
-        if (vbs.size() > 1) args.insert(args.end(), {"--first-note", std::to_string(first_note_s[k])});
-      }
-      args.insert(args.end(), {"-o", out_wav});
-      if (!out_png.empty()) args.insert(args.end(), {"--png", out_png});
-      const int rc = run_sibling(vbs[0]->path(), "stepchoir-render", args);
-      if (keep_trace.empty())
-        for (const std::string &t : traces) ::unlink(t.c_str());
-      if (rc != 0) {
-        std::fprintf(stderr, "render: stepchoir-render failed (exit %d)\n", rc);
-        return 1;
-      }
-      std::printf("render: wrote %s%s%s\n", out_wav.c_str(), out_png.empty() ? "" : " and ", out_png.c_str());
-    }
+    if (rendering && !write_render(vbs, traces, first_note_s, out_wav, out_png, !keep_trace.empty())) return 1;
     return 0;
   } catch (const std::exception &e) {
     std::fprintf(stderr, "stepchoir %s: %s\n", cmd.c_str(), e.what());

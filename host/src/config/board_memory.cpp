@@ -99,7 +99,7 @@ void remember_board(uint64_t id, const BoardRecord &record, const std::string &p
 }
 
 uint32_t crystal_hz(uint32_t f_cpu_hz, const std::optional<BoardRecord> &known) {
-  if (!known) return f_cpu_hz;
+  if (!known || !std::isfinite(known->clock_ppm) || std::fabs(known->clock_ppm) > kMaxCrystalPpm) return f_cpu_hz;
   return static_cast<uint32_t>(std::llround(f_cpu_hz * (1.0 + known->clock_ppm / 1e6)));
 }
 

@@ -45,6 +45,8 @@ void remember_board(uint64_t id, const BoardRecord &record, const std::string &p
 // The board's clock as a listener hears it (Hz): F_CPU, or for a board met before F_CPU as its
 // remembered crystal runs, rounded to the hertz (0.06 ppm). The keyboard's periods come from it,
 // so its notes are in tune on a board whose crystal is off. Called from: live, jam.
+// A remembered error beyond kMaxCrystalPpm (a hand-edited file) is left aside: F_CPU.
+constexpr double kMaxCrystalPpm = 20000;
 uint32_t crystal_hz(uint32_t f_cpu_hz, const std::optional<BoardRecord> &known);
 
 // The board's id; a board without one (id 0: a new board) is given a random one first.

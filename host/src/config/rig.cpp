@@ -35,10 +35,22 @@ Rig load_rig(const std::string &given) {
   return rig;
 }
 
+namespace {
+
+// True when a and b name the same file, whatever the links between (a by-id name and the
+// ttyACM node it points at).
+bool same_file(const std::string &a, const std::string &b) {
+  if (a == b) return true;
+  struct stat sa, sb;
+  return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+}  // namespace
+
 const BoardSettings *board_settings(const Rig &rig, const std::string &port, size_t index) {
   const auto &boards = rig.config.boards;
   for (const BoardSettings &b : boards)
-    if (!b.port.empty() && b.port == port) return &b;
+    if (!b.port.empty() && same_file(b.port, port)) return &b;
   // else by position: the same rig on another port name (a board plugged in elsewhere), unless
   // that entry's port is there: it belongs to the board on it, not to this one.
   if (index >= boards.size()) return nullptr;

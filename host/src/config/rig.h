@@ -40,7 +40,7 @@ struct Rig {
 Rig load_rig(const std::string &given);
 
 // The [[boards]] entry for the board at `port`, the `index`-th of the command's boards: the
-// entry whose port is that port, else the index-th entry if it names no port or one that is
+// entry whose port is that port (the same file: a by-id link names its ttyACM node), else the index-th entry if it names no port or one that is
 // not there (the board plugged in elsewhere), else none. Called from: the commands, after they
 // opened the board.
 const BoardSettings *board_settings(const Rig &rig, const std::string &port, size_t index);

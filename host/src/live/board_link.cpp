@@ -379,7 +379,7 @@ void BoardLink::reader_loop() {
       if (p[0] == sc::kMsgError && len >= 4) {
         stats_.board_errors.fetch_add(1, std::memory_order_relaxed);
         stats_.last_error.store(p[1], std::memory_order_relaxed);
-      } else if (p[0] == sc::kMsgCaps && !forward_) {
+      } else if (p[0] == sc::kMsgCaps && (!forward_ || song_motors_.load(std::memory_order_acquire) == 0)) {
         stats_.restarted.store(true, std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgStatus) {
         try {

@@ -59,9 +59,9 @@ struct BoardStats {
   std::atomic<uint64_t> direct_frames{0};  // set-period frames the engine wrote itself
   std::atomic<bool> write_failed{false}, read_failed{false};
   // The board sent its capabilities unasked: it started again with the link up (its reset
-  // button, a brown-out) and runs on its defaults, silent. Set by the reader when no song player
-  // shares the board (one asks for them: jam's player sees the restart by its clock); cleared
-  // when a link is attached.
+  // button, a brown-out) and runs on its defaults, silent. Set by the reader while no song plays
+  // on the board (a song's player asks for them, and sees a restart by the board's clock);
+  // cleared when a link is attached.
   std::atomic<bool> restarted{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest

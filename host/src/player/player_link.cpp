@@ -191,8 +191,9 @@ bool Player::reopen(const std::atomic<bool> &stop) {
       // console and keys stay alive.
       if (playing_) report(score_now(monotonic_us()), false);
       if (monotonic_us() - start > opt_.reconnect_s * 1e6) {
-        error_ = "the board was lost and did not come back within " + std::to_string(static_cast<int>(opt_.reconnect_s)) +
-                 " s (" + e.what() + ")";
+        char within[32];
+        std::snprintf(within, sizeof within, "%g s", opt_.reconnect_s);
+        error_ = "the board was lost and did not come back within " + std::string(within) + " (" + e.what() + ")";
         return false;
       }
       board_lost_ = true;

@@ -189,15 +189,17 @@ LoopResult simulate(const Options &options, const BoardConfig &board, AvrAdapter
     // killed; the host's open of the pty resets the board, and so does SIGUSR1 (its button).
     const bool check = ++chunk % kCheckChunks == 0;
     if (check && options.exit_with_parent && getppid() != parent) g_stop_signal = SIGHUP;
-    if (check && link.take_host_open() && options.auto_reset) {
+    const auto reset = [&] {
       avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
       trace.mcu_reset(avr.cycle());
+    };
+    if (check && link.take_host_open() && options.auto_reset) {
+      reset();
       ++result.host_resets;
     }
     if (check && g_reset_button) {
       g_reset_button = 0;
-      avr.reset_by_host(options.bootloader ? ms_to_cycles(board.bootloader_ms, board) : 0);
-      trace.mcu_reset(avr.cycle());
+      reset();
     }
     avr.leave_bootloader_when_done();
     // Host bytes are stamped, when pacing, with the simulated time of their arrival on the wall
