@@ -4,6 +4,8 @@
 #ifndef STEPCHOIR_TESTS_E2E_LIVE_CHECKS_H
 #define STEPCHOIR_TESTS_E2E_LIVE_CHECKS_H
 
+#include <catch2/catch.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -66,6 +68,15 @@ inline bool wait_for_line(stepchoir::ChildProcess &process, const std::string &t
 // Called from: each test once `stepchoir live` said it is connected. Lets the JACK graph take
 // the new connection before the first note (events in that cycle could be lost).
 inline void settle() { std::this_thread::sleep_for(std::chrono::milliseconds(300)); }
+
+// Reads live's first line, which must name `ready` (its motors and policy), then settles.
+inline void wait_ready(stepchoir::ChildProcess &live, const std::string &ready) {
+  std::string line;
+  REQUIRE(live.read_line(&line, 30000));
+  INFO("stepchoir live said: " << line);
+  REQUIRE(line.find(ready) != std::string::npos);
+  settle();
+}
 
 }  // namespace live_checks
 

@@ -23,6 +23,7 @@
 #include "core/midi_event.h"
 #include "e2e_util.h"
 #include "jack_rig.h"
+#include "known_board.h"
 #include "live_checks.h"
 #include "trace.h"
 #include "vboard_process.h"
@@ -112,16 +113,8 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
   const std::string trace_path = e2e::scratch("live-config.csv"), config_path = e2e::scratch("live-config.toml");
   // The board's id in its EEPROM, and its crystal in the host's memory (XDG_CACHE_HOME, which
   // the child reads): live's keyboard takes it, so the notes are in tune in real time.
-  const std::string eeprom = e2e::scratch("live-config.eeprom"), cache = e2e::scratch("live-config-cache");
-  std::ofstream(eeprom, std::ios::binary) << std::string("\x2a\x00\x00\x00\x00\x00\x00\x01", 8);
-  ::mkdir(cache.c_str(), 0700);
-  ::mkdir((cache + "/stepchoir").c_str(), 0700);
-  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.010000000000002a]\nclock_ppm = 5000.0\nsigma_ppm = 5.0\n";
-  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);
-  struct Restore {
-    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
-  } restore;
-  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure", "--eeprom", eeprom,
+  const e2e::KnownBoard known("live-config", 0x010000000000002a, 5000.0);
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure", "--eeprom", known.eeprom,
                     "--clock-ppm", "5000"});
   {
     std::ofstream f(config_path);
@@ -139,11 +132,7 @@ TEST_CASE("live: a configuration file names the board, configures its motor and 
     CHECK(listed.find(std::string(":") + Sender::kPort) != std::string::npos);
   }
   stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
-  std::string line;
-  REQUIRE(live.read_line(&line, 30000));
-  INFO("stepchoir live said: " << line);
-  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
-  settle();
+  wait_ready(live, "-> 4 motors, policy channel");
   keys.send(stepchoir::note_on(0, 60, 100));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   keys.send(stepchoir::note_off(0, 60));
@@ -181,11 +170,7 @@ TEST_CASE("live: a board reset with its link up (its button) is set up again fro
                              << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
                              << "[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
   stepchoir::ChildProcess live({STEPCHOIR_BIN, "live", "--config", config_path, "--quiet"}, true);
-  std::string line;
-  REQUIRE(live.read_line(&line, 30000));
-  INFO("stepchoir live said: " << line);
-  REQUIRE(line.find("-> 4 motors, policy channel") != std::string::npos);
-  settle();
+  wait_ready(live, "-> 4 motors, policy channel");
   keys.send(stepchoir::note_on(0, 60, 100));  // channel 1: motor 0, held across the reset
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);  // the reset button: the USB bridge stays up

@@ -25,6 +25,7 @@
 #include "e2e_util.h"
 #include "play_checks.h"
 #include "jack_rig.h"
+#include "known_board.h"
 #include "player/plan.h"
 #include "score.h"
 #include "smf_builder.h"
@@ -115,15 +116,8 @@ TEST_CASE("play: the board reset mid-song (virtual board restarted): the host re
   std::ofstream(rig) << "[[boards]]\nport = \"" << link << "\"\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
   // A board the host has met before (its id in its EEPROM, its crystal in the host's memory),
   // so that its sync takes a second, whatever the link.
-  const std::string eeprom = scratch("play-reset.eeprom"), cache = scratch("play-reset-cache");
-  std::ofstream(eeprom, std::ios::binary) << std::string("\x01\x02\x03\x04\x05\x06\x07\x08", 8);
-  ::mkdir(cache.c_str(), 0700);
-  ::mkdir((cache + "/stepchoir").c_str(), 0700);
-  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.0807060504030201]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
-  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);  // the player reads it
-  struct Restore {
-    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
-  } restore;
+  const e2e::KnownBoard known("play-reset", 0x0807060504030201, 0.0);
+  const std::string &eeprom = known.eeprom;
   // The boards reset when play opens them, as an Uno does: play waits out the bootloader
   // (1.4 s) both times.
   auto vb = std::make_unique<VboardProcess>(
@@ -174,16 +168,8 @@ TEST_CASE("jam: the board reset with its link up (its button) mid-song - the son
   const std::string song = write_test_song("jam-button.mid");
   const std::string trace_path = scratch("jam-button.csv"), rig = scratch("jam-button.toml");
   // A board met before (a second of sync), reset by the open as an Uno is; motor 0 a TB6600.
-  const std::string eeprom = scratch("jam-button.eeprom"), cache = scratch("jam-button-cache");
-  std::ofstream(eeprom, std::ios::binary) << std::string("\x11\x02\x03\x04\x05\x06\x07\x08", 8);
-  ::mkdir(cache.c_str(), 0700);
-  ::mkdir((cache + "/stepchoir").c_str(), 0700);
-  std::ofstream(cache + "/stepchoir/boards.toml") << "[boards.0807060504030211]\nclock_ppm = 0.0\nsigma_ppm = 5.0\n";
-  ::setenv("XDG_CACHE_HOME", cache.c_str(), 1);
-  struct Restore {
-    ~Restore() { ::unsetenv("XDG_CACHE_HOME"); }
-  } restore;
-  VboardProcess vb({"--board", "uno", "--auto-reset", "--eeprom", eeprom, "--trace", trace_path, "--quiet"});
+  const e2e::KnownBoard known("jam-button", 0x0807060504030211, 0.0);
+  VboardProcess vb({"--board", "uno", "--auto-reset", "--eeprom", known.eeprom, "--trace", trace_path, "--quiet"});
   std::ofstream(rig) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n[[boards]]\nport = \""
                      << vb.pty() << "\"\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
   ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--config", rig, "--song-motors",
