@@ -1,6 +1,6 @@
 // test_usb_bridge.cpp: the virtual board's USB bridge models (--link-model) on the real
 // firmware: when host frames reach the UART and when replies reach the host, from the trace's
-// cycles (exact), against the ideal link.
+// cycles (exact), against the ideal link; the reset on open and the bootloaders' hold.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -160,6 +160,37 @@ TEST_CASE("link: opening the port resets an Uno or a Mega, and the host waits ou
   Board b(open_link(vb.pty()));
   CHECK_THROWS(b.hello(1200));
   CHECK(b.greet().motor_count == 4);  // its announcement still waits in the pty
+}
+
+TEST_CASE("link: bytes that reach a Mega's bootloader hold it until 5 s of silence, and an Uno's does not",
+          "[e2e][pacing]") {
+  for (const std::string board : {"uno", "mega"}) {
+    INFO(board);
+    const std::string trace_path = e2e::scratch("boot-held-" + board + ".csv");
+    {
+      VboardProcess vb({"--board", board, "--auto-reset", "--link-model", "16u2", "--seconds", "30", "--trace",
+                        trace_path, "--trace-frames", "--quiet", "--no-measure"});  // in real time
+      Board b(open_link(vb.pty()));
+      // Three hellos, 0.4 s apart from the open on: the bootloader loses each.
+      CHECK_THROWS(b.hello(1200));
+      CHECK(b.greet(7000).motor_count == (board == "uno" ? 4u : 5u));
+      REQUIRE(vb.stop() == 0);
+    }
+    const tr::Trace t = tr::read_trace(trace_path);
+    REQUIRE(t.mcu_resets.size() == 1);
+    const uint64_t reset = t.mcu_resets.front();
+    const auto first = std::find_if(t.replies.begin(), t.replies.end(),
+                                    [&](const auto &r) { return r.cycle > reset + uint64_t(t.f_cpu_hz / 10); });
+    REQUIRE(first != t.replies.end());
+    const double boot_ms = double(first->cycle - reset) * 1e3 / t.f_cpu_hz;
+    INFO("the firmware's capabilities reached the host " << boot_ms << " ms after the reset");
+    if (board == "uno") {
+      CHECK(boot_ms < 1375.0 + 10.0);  // optiboot ignores them (framing errors at its baud rate)
+    } else {
+      CHECK(boot_ms > 800.0 + 5000.0);  // the last hello about 0.8 s after the reset
+      CHECK(boot_ms < 900.0 + 5000.0 + 100.0);
+    }
+  }
 }
 
 TEST_CASE("link: with --no-auto-reset the host's opens leave the board running") {

@@ -95,6 +95,14 @@ class Board {
   // Capabilities that come sooner than this after the open are stale (shorter than any
   // bootloader, longer than any bridge holds bytes).
   static constexpr int kStaleMs = 100;
+  // A board asked for something every second or more often that sent nothing for this long
+  // has stopped answering: a Mega reset with its link up stays in its bootloader while bytes
+  // keep coming (live's BoardStats::heard_us, the song player's).
+  static constexpr int kSilentMs = 3500;
+  // How long the host then sends nothing and listens for the capabilities the firmware sends
+  // as it starts: a Mega's bootloader that bytes reached starts it 5.0 s after the last one
+  // (tools/vboard/src/board_config.cpp).
+  static constexpr int kQuietWaitMs = 6500;
 
   // Asks for status; nullopt on timeout.
   std::optional<Status> status(int timeout_ms = 500);

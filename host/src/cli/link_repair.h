@@ -28,12 +28,15 @@ namespace stepchoir {
 //
 // A board that restarted with its link up (BoardStats::restarted: its reset button) goes the
 // same way without the reopen: its threads parked, it is asked for its capabilities on the
-// link it has, configured again and handed back, which restores what should be sounding. If it
+// link it has, configured again and handed back, which restores what should be sounding. A
+// board that stopped answering (BoardStats::heard_us, Board::kSilentMs: a Mega reset with its
+// link up, held in its bootloader by the bytes that kept coming) keeps its link too, but gets
+// nothing on it until its firmware announces itself (Board::kQuietWaitMs at most). If either
 // does not answer there, its port is opened again as after a loss.
 struct LinkRepair {
   enum class State : uint8_t { kUp, kParking, kReopening } state = State::kUp;
-  bool restarted = false;  // the board restarted, its link up: the link is kept
-  std::chrono::steady_clock::time_point next_try{};
+  enum class Cause : uint8_t { kLost, kRestarted, kSilent } cause = Cause::kLost;
+  std::chrono::steady_clock::time_point next_try{}, quiet_until{};
 };
 
 // Called from: the thread that keeps the session's links (live's main loop, jam's link keeper),

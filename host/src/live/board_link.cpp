@@ -106,6 +106,7 @@ void BoardLink::start() {
     sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);  // the motors stop by themselves if this program dies
     send_payload(*link_.load(), wd, sizeof wd);
   }
+  stats_.heard_us.store(monotonic_us());
   reader_ = std::thread([this] { reader_loop(); });
   writer_ = std::thread([this] { writer_loop(); });
 }
@@ -141,6 +142,7 @@ void BoardLink::attach(Link *link) {
   stats_.read_failed.store(false);
   stats_.restarted.store(false);
   stats_.last_status_us.store(0);
+  stats_.heard_us.store(monotonic_us());
   stats_.reconnects.fetch_add(1);
   attach_gen_.store(detach_gen_.load(), std::memory_order_release);
 }
@@ -374,6 +376,7 @@ void BoardLink::reader_loop() {
     }
     for (long i = 0; i < n; ++i) {
       if (decoder.push(buf[i]) != sc::kFrameOk) continue;
+      stats_.heard_us.store(monotonic_us(), std::memory_order_relaxed);
       const uint8_t *p = decoder.payload();
       const uint8_t len = decoder.payload_len();
       if (p[0] == sc::kMsgError && len >= 4) {

@@ -66,6 +66,10 @@ struct BoardStats {
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
   std::atomic<uint64_t> last_status_us{0}; // when the latest status reply came (monotonic_us)
+  // When the board last sent a whole frame, or its link started or was attached (monotonic_us).
+  // A board that sends nothing while asked for its status every second has stopped: a Mega
+  // reset with its link up stays in its bootloader while bytes keep coming (Board::kSilentMs).
+  std::atomic<uint64_t> heard_us{0};
   std::atomic<uint32_t> status_frames_bad{0}, status_overruns{0};
   std::atomic<bool> watchdog_tripped{false};
   std::atomic<uint8_t> sounding_mask{0};   // bit m: the board said motor m is sounding

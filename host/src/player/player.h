@@ -195,6 +195,10 @@ class Player {
   double dither_ = 0;           // fraction of a USB frame added to the next request's time
   double line_free_us_ = 0;  // host time (us) the line to the board has carried what was written
   bool board_lost_ = false, board_restarted_ = false;
+  // The board sent nothing for Board::kSilentMs while the song played (play: it is asked for
+  // its clock and status several times a second): it is opened again after a silence.
+  bool board_silent_ = false;
+  uint64_t heard_us_ = 0;  // when the board last sent a whole frame (monotonic_us), once playing
   // Song time s (in loop k: k * duration + s) -> board ticks (see the top; player/timeline.h).
   Timeline line_;
   void anchor(double score_s, uint64_t now_us);  // sets the timeline: score_s one lead after now

@@ -31,6 +31,10 @@ constexpr double kUsbFrameUs = 1000;
 // when a link that queues (jam) handed the frame to the OS (0 when that did not happen in time).
 // False when the link failed.
 bool Player::send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us) {
+  if (!board_) {  // closed for a reopen that has not succeeded yet
+    board_lost_ = true;
+    return false;
+  }
   const std::vector<uint8_t> wire = frame(payload);
   budget_.refill(monotonic_us());
   while (!budget_.can_send()) {
@@ -86,6 +90,7 @@ bool Player::read_replies(int timeout_ms) {
   const uint64_t now = monotonic_us();
   for (long i = 0; i < n; ++i) {
     if (decoder_.push(buf[i]) != sc::kFrameOk) continue;
+    if (heard_us_) heard_us_ = now;
     const uint8_t *p = decoder_.payload();
     const uint8_t len = decoder_.payload_len();
     if (p[0] == sc::kMsgClock && len >= 6) {
@@ -178,9 +183,15 @@ bool Player::reopen(const std::atomic<bool> &stop) {
     try {
       if (board_lost_) {
         if (!opener_) throw std::runtime_error("cannot be opened again");
+        // A silent board's port is closed first: on a real one DTR drops, so the open resets it.
+        if (board_silent_) board_.reset();
         board_ = std::make_unique<Board>(opener_());
       }
-      const Caps caps = board_lost_ && opt_.open_resets ? board_->greet() : board_->hello();
+      // A silent board is listened to in silence first: a Mega's bootloader, held by the bytes
+      // that kept coming, starts the firmware only after 5 s without one.
+      const Caps caps = board_silent_                     ? board_->greet(Board::kQuietWaitMs)
+                        : board_lost_ && opt_.open_resets ? board_->greet()
+                                                          : board_->hello();
       if (caps.motor_count != caps_.motor_count || caps.f_cpu_hz != caps_.f_cpu_hz)
         throw std::runtime_error("a different board answered");
       if (opt_.on_reopen) opt_.on_reopen(*board_, caps);
@@ -200,7 +211,8 @@ bool Player::reopen(const std::atomic<bool> &stop) {
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   }
-  board_lost_ = board_restarted_ = false;
+  board_lost_ = board_restarted_ = board_silent_ = false;
+  if (heard_us_) heard_us_ = monotonic_us();
   stats_.reconnecting = false;
   decoder_ = sc::FrameDecoder();
   send_payload(watchdog_payload(sc::kWatchdogDefaultMs));

@@ -47,6 +47,9 @@ class AvrAdapter : public SwitchPinDriver {
   // meanwhile are lost), then the firmware starts from address 0. Called after load(): at
   // power-on (a Mega's bootloader waits then too), and by reset_by_host.
   void hold_in_bootloader(uint64_t cycles);
+  // A host byte that reaches the bootloader holds it until `cycles` after that byte (a Mega's
+  // stk500v2; 0, the default: bytes do not hold it). Called after load().
+  void set_bootloader_quiet(uint64_t cycles) { boot_quiet_cycles_ = cycles; }
   // Called from: the run loop, between chunks. Starts the firmware once the bootloader's time
   // is out (to a chunk).
   void leave_bootloader_when_done();
@@ -175,6 +178,7 @@ class AvrAdapter : public SwitchPinDriver {
   uint64_t uart_xoff_count_ = 0;
   uint64_t uart_would_overrun_ = 0;
   uint64_t boot_end_cycle_ = 0;  // the bootloader's idle loop runs until this cycle
+  uint64_t boot_quiet_cycles_ = 0;  // set_bootloader_quiet
   bool in_bootloader_ = false;
 };
 

@@ -167,6 +167,8 @@ uint64_t AvrAdapter::on_rx_timer(avr_t *avr, uint64_t when, void *param) {
     if (byte == 0 && self->frame_trace_) self->frame_trace_->frame_end(avr->cycle, avr->cycle - self->frame_first_cycle_);
   } else if (deliver) {
     ++self->uart_in_lost_;  // receiver off: the byte is lost, as on the real chip
+    if (self->in_bootloader_ && self->boot_quiet_cycles_)
+      self->boot_end_cycle_ = std::max(self->boot_end_cycle_, avr->cycle + self->boot_quiet_cycles_);
   }
   self->next_rx_cycle_ = avr->cycle + std::max(self->uart_byte_cycles(), self->rx_gap_cycles_);
   if (self->xoff_ || (self->repeat_byte_ < 0 && self->link_.rx_next_ns() == UINT64_MAX)) {

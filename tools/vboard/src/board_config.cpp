@@ -71,6 +71,12 @@ bool board_config_for(const std::string &cli_name, BoardConfig &config) {
     // 0.833 s after the reset (docs/usb-bridges.md).
     config.bootloader_ms = 833;
     config.bootloader_at_power_on = true;
+    // A byte that comes meanwhile (the host's 1 Mbaud bytes read at its 115,200 baud) takes it
+    // into its message loop, which starts the firmware only after F_CPU / 2 passes of its
+    // receive wait with no byte (stk500boot.c's recchar_timeout): in the Debian hex that wait is
+    // a 10-cycle loop (at 0x3e700), 5.0 s; each byte starts it again. Optiboot, the Uno's,
+    // ignores bytes with framing errors and is not held.
+    config.bootloader_quiet_ms = 5000;
     config.enable_active_low = b::kEnableActiveLow;
     config.motors = to_motor_configs(b::kMotors);
     config.arduino_pins = to_pin_refs(b::kPinMap, b::kPinCount);

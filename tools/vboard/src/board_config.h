@@ -42,6 +42,9 @@ struct BoardConfig {
   // firmware starts (ms), and whether it holds it at power-on too.
   double bootloader_ms = 0;
   bool bootloader_at_power_on = false;
+  // A host byte that reaches the bootloader meanwhile keeps it until this much silence (ms)
+  // after the latest byte; 0: bytes do not hold it.
+  double bootloader_quiet_ms = 0;
 };
 
 // Fills config for "uno" or "mega"; returns false for an unknown name.

@@ -355,6 +355,7 @@ int run(const Options &options, FILE *real_stdout) {
     std::fprintf(stderr, "stepchoir-vboard: %s\n", error.c_str());
     return 1;
   }
+  avr.set_bootloader_quiet(ms_to_cycles(board.bootloader_quiet_ms, board));
   if (options.bootloader && board.bootloader_at_power_on) avr.hold_in_bootloader(ms_to_cycles(board.bootloader_ms, board));
   std::unique_ptr<CpuProfiler> profiler;
   if (options.measure) {
