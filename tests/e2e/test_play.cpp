@@ -26,6 +26,7 @@
 #include "play_checks.h"
 #include "jack_rig.h"
 #include "known_board.h"
+#include "live_checks.h"
 #include "player/plan.h"
 #include "score.h"
 #include "smf_builder.h"
@@ -198,7 +199,7 @@ TEST_CASE("play: a Mega reset with its link up (its button) mid-song, held in it
 }
 
 TEST_CASE("jam: the board reset with its link up (its button) mid-song - the song's player sets it up again from "
-          "the rig file and plays on",
+          "the rig file and plays on, and the held key sounds again",
           "[play][jam][safety][pacing]") {
   JackServer jack(1024);
   Sender keys;  // the keyboard, silent
@@ -214,9 +215,14 @@ TEST_CASE("jam: the board reset with its link up (its button) mid-song - the son
                    true);
   std::string said;
   REQUIRE(wait_for_line(jam, "jam: the song on motors 0,1", &said) != "");
-  // a second of sync and the lead, then under a second into the song: the button
-  std::this_thread::sleep_for(std::chrono::milliseconds(2000));
+  // A key held on the keyboard's motors across the reset; a second of sync and the lead, then
+  // under a second into the song: the button.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  keys.send(stepchoir::note_on(0, 60, 100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(4000));
+  keys.send(stepchoir::note_off(0, 60));
   const std::string out = said + jam.read_rest(60000);
   REQUIRE(jam.wait() == 0);
   REQUIRE(vb.stop() == 0);
@@ -232,6 +238,25 @@ TEST_CASE("jam: the board reset with its link up (its button) mid-song - the son
   // Motor 0's pulses after the reset: the TB6600's 5 us again, the rig file's setting sent anew
   // (motor 1 keeps the default).
   check_tb6600_pulses(t, 0, 1, t.mcu_resets[1]);
+  // The held key, on the keyboard's motors (a lone key sounds on every free one): before the
+  // button, and again once the board is set up again (its bootloader, a hello, the rig file's
+  // motors), until its release.
+  const double reset_s = double(t.mcu_resets[1]) / t.f_cpu_hz;
+  size_t found = 0;
+  for (size_t m = 2; m < 4; ++m) {
+    const auto notes = sc::trace::segment_notes(t.motor[m].steps, t.f_cpu_hz);
+    if (notes.empty()) continue;
+    ++found;
+    REQUIRE(notes.size() == 2);
+    CHECK(double(notes[0].end_cycle) / t.f_cpu_hz < reset_s);
+    const double back_s = double(notes[1].start_cycle) / t.f_cpu_hz - reset_s;
+    INFO("the held key sounded again " << back_s << " s after the button");
+    CHECK(back_s > 1.375);  // the bootloader
+    CHECK(back_s < 2.5);
+    for (const auto &n : notes) CHECK(std::fabs(n.midi_note - 60) < live_checks::kPitchToleranceSemitones);
+    CHECK(double(notes[1].end_cycle - notes[1].start_cycle) / t.f_cpu_hz > 1.0);
+  }
+  CHECK(found >= 1);
 }
 
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {
