@@ -4,7 +4,8 @@
 // motors 2-3) while a key is held: the held note stops at the change, nothing is left sounding,
 // and each note after it sounds on its zone's motors at the transposed pitch. A preset that
 // narrows motor 0's range ([[presets.motors]]): keys outside it fold by octaves into it on that
-// motor, while motor 1 plays as the board has it.
+// motor, while motor 1 plays as the board has it. `stepchoir jam` takes the rig file's presets
+// and controls for its keyboard's motors, by the pool numbers it prints.
 #include <catch2/catch.hpp>
 
 #include <chrono>
@@ -20,6 +21,7 @@
 #include "core/midi_event.h"
 #include "e2e_more.h"
 #include "e2e_util.h"
+#include "play_checks.h"
 #include "jack_rig.h"
 #include "score.h"
 #include "trace.h"
@@ -233,4 +235,57 @@ TEST_CASE("live: a preset narrows a motor's range: keys outside it fold by octav
   double worst_cents = 0;
   for (const Expected &e : expected) check_note(sounded, e, "preset range", &worst_cents);
   std::printf("preset range: worst pitch error %+.4f cents\n", worst_cents);
+}
+
+TEST_CASE("jam: the keyboard takes the rig file's presets and controls on its own motors while the song plays",
+          "[e2e][jam][pacing]") {
+  JackServer jack(1024);
+  Sender keys;
+  const std::string song = play_checks::write_test_song("jam-presets.mid");
+  const std::string trace_path = e2e::scratch("jam-presets.csv"), rig = e2e::scratch("jam-presets.toml");
+  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  // The song on motors 0 and 1, the keyboard on 2 and 3. Program 2 transposes an octave up and
+  // mutes motor 2 (motor 0, the song's, is left out with a warning); controller 20 mutes motor 3
+  // on stage.
+  std::ofstream(rig) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n" << kPlain
+                     << "[[presets]]\nprogram = 2\nname = \"up\"\ntranspose = 12\nmute_motors = [0, 2]\n"
+                     << "[[controls]]\naction = \"mute_motor\"\ncc = 20\nmotor = 3\n"
+                     << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
+  stepchoir::ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--config", rig,
+                               "--song-motors", "0,1", "--quiet"},
+                              true);
+  std::string said, line;
+  while (said.find("jam: the song on motors 0,1") == std::string::npos && jam.read_line(&line, 30000))
+    said += line + "\n";
+  INFO("stepchoir jam said:\n" << said);
+  REQUIRE(said.find("on motors 2,3") != std::string::npos);
+  wait_ms(300);  // JACK takes the new connection
+  double down[128] = {}, up[128] = {};
+  auto tap = [&](uint8_t key) {
+    down[key] = keys.send(stepchoir::note_on(0, key, 64));  // velocity 64: one motor
+    wait_ms(400);
+    up[key] = keys.send(stepchoir::note_off(0, key));
+    wait_ms(200);
+  };
+  tap(60);  // "plain": motor 2
+  keys.send(stepchoir::MidiEvent{stepchoir::kMidiProgramChange, 1, 0, 0});
+  bool switched = false;
+  while (!switched && jam.read_line(&line, 5000)) switched = line == "jam: preset 2 up";
+  CHECK(switched);
+  tap(62);  // "up": motor 3 (motor 2 muted), D5
+  keys.send(stepchoir::control_change(0, 20, 127));
+  wait_ms(100);
+  tap(64);  // both keyboard motors muted: nothing
+  const std::string out = jam.read_rest(60000);
+  INFO(out);
+  CHECK(jam.wait() == 0);
+  REQUIRE(vb.stop() == 0);
+
+  std::vector<e2e::Sounded> keyboard;
+  for (const e2e::Sounded &n : e2e::sounded_notes_logged(tr::read_trace(trace_path)))
+    if (n.motor >= 2) keyboard.push_back(n);
+  const std::vector<Expected> expected = {{2, 60, (up[60] - down[60]) * 1e3}, {3, 74, (up[62] - down[62]) * 1e3}};
+  REQUIRE(keyboard.size() == expected.size());  // the muted key sounded nowhere
+  double worst_cents = 0;
+  for (const Expected &e : expected) check_note(keyboard, e, "jam presets", &worst_cents);
 }

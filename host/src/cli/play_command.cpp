@@ -20,6 +20,7 @@
 #include "board/vboard_child.h"
 #include "cli/jam_console.h"
 #include "cli/jam_link.h"
+#include "cli/jam_side.h"
 #include "cli/link_repair.h"
 #include "cli/plan_options.h"
 #include "cli/play_console.h"
@@ -203,16 +204,6 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       }
     }
     // Each board greeted and configured from the rig file (its virtual stand-in too).
-    struct BoardRun {
-      std::string path;
-      std::unique_ptr<Board> board;
-      Caps caps;
-      const BoardSettings *settings = nullptr;
-      std::vector<uint8_t> song_ids;  // its motors that play the song
-      std::vector<uint8_t> live_ids;  // jam: its motors the keyboard plays
-      std::optional<uint64_t> id;     // a board on a port: its id (config/board_memory.h)
-      std::optional<BoardRecord> known;
-    };
     std::vector<BoardRun> boards;
     size_t pool_first = 0;  // jam: the pool number of this board's motor 0
     for (size_t b = 0; b < paths.size(); ++b) {
@@ -267,59 +258,16 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       if (!e.silent && first_note_s[b] < 0) first_note_s[b] = e.time_s;
       events[b].push_back(e);
     }
-    std::unique_ptr<LiveSession> session;
-    std::unique_ptr<MidiIn> midi_in;
-    ConsoleSources console_sources;  // jam: what its console shows besides the session
-    // jam --midi-clock: one clock queue and timeline a board's player.
-    std::vector<std::unique_ptr<ClockQueue>> clock_queues;
-    std::vector<std::unique_ptr<MidiClockTimeline>> timelines;
     if (jamming && midi_clock && (sel.tempo != 1.0 || sel.start_s != 0))
       throw std::runtime_error("--midi-clock: the clock sets the tempo and the position (no --tempo or --start)");
-    if (jamming) {
-      // The live path owns every board's link (its writer sends live notes first); the song goes
-      // through it (JamLink). The keyboard plays the other motors of every board, one pool.
-      // A board met before: the keyboard's periods at its remembered crystal's rate.
-      std::vector<LiveBoard> lbs;
-      for (const BoardRun &r : boards)
-        lbs.push_back(LiveBoard{&r.board->link(), static_cast<uint8_t>(r.live_ids.size()),
-                                crystal_hz(r.caps.f_cpu_hz, r.known), r.live_ids});
-      AllocatorConfig alloc = pool_config(lbs, policy.empty() ? rig.config.policy : parse_policy(policy));
-      for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].live_ids.size(), ++b) {
-        const std::vector<MotorConfig> live_music = motor_music(boards[b].settings, lbs[b].f_cpu_hz, boards[b].live_ids);
-        std::copy(live_music.begin(), live_music.end(), alloc.motors.begin() + static_cast<long>(first));
-        for (size_t k = 0; k < boards[b].live_ids.size(); ++k)
-          alloc.mono_channel[first + k] = motor_mono_channel(boards[b].settings, boards[b].live_ids[k]);
-      }
-      apply_allocation(rig.config, &alloc);
-      console_sources.music = alloc;
-      session = std::make_unique<LiveSession>(lbs, alloc);
-      for (size_t b = 0; b < boards.size(); ++b) session->forward_replies(b);
-      midi_in = std::make_unique<MidiIn>(parse_midi_api(api_name), midi_selector, session->midi_queue());
-      for (size_t b = 0; midi_clock && b < boards.size(); ++b) {
-        clock_queues.push_back(std::make_unique<ClockQueue>(4096));
-        midi_in->route_clock(*clock_queues.back());
-        timelines.push_back(std::make_unique<MidiClockTimeline>(*clock_queues.back(), song.tempo));
-      }
-      session->start();
-      std::string ids_song, ids_live;  // pool numbers
-      for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].caps.motor_count, ++b) {
-        for (uint8_t m : boards[b].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(first + m);
-        for (uint8_t m : boards[b].live_ids) {
-          ids_live += (ids_live.empty() ? "" : ",") + std::to_string(first + m);
-          console_sources.motor_numbers.push_back(first + m);
-          console_sources.travel_steps.push_back(motor_travel(boards[b].settings, m));
-        }
-        console_sources.board_names.push_back(boards[b].path);
-      }
-      std::printf("jam: the song on motors %s, MIDI %s (%s) on motors %s\n", ids_song.c_str(),
-                  midi_in->port_name().c_str(), api_name.c_str(), ids_live.c_str());
-      if (midi_clock && midi_in->clock_delay_us())
-        std::printf("jam: the song follows the MIDI clock (its ticks taken as sent %.2f ms before they come: half "
-                    "JACK's period): waiting for Start\n", midi_in->clock_delay_us() / 1e3);
-      else if (midi_clock)
-        std::printf("jam: the song follows the MIDI clock: waiting for Start\n");
-      std::fflush(stdout);
-    }
+    JamSide jam_side;  // jam: the live path over every board's keyboard motors
+    if (jamming)
+      jam_side = start_jam(boards, rig, policy.empty() ? rig.config.policy : parse_policy(policy), api_name, midi_selector,
+                           midi_clock, song.tempo);
+    std::unique_ptr<LiveSession> &session = jam_side.session;
+    std::unique_ptr<MidiIn> &midi_in = jam_side.midi_in;
+    ConsoleSources &console_sources = jam_side.console_sources;
+    std::vector<std::unique_ptr<MidiClockTimeline>> &timelines = jam_side.timelines;
     // One player a board; with several, they take one start (StartGate) and play on their own
     // clocks; a board lost mid-song drops its notes while the others play on.
     StartGate gate(boards.size());
@@ -429,7 +377,13 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
         --others_playing;
       });
     // The main thread's share of a progress call: board's progress, its stats that board's.
+    int preset_shown = -1;  // jam: the keyboard's preset last told
     auto on_main = [&](const PlayerProgress &p, size_t board) {
+      if (session && !session->presets().empty() && session->preset() != preset_shown) {
+        preset_shown = session->preset();
+        const LivePreset &lp = session->presets()[static_cast<size_t>(preset_shown)];
+        if (!console) say_line(cmd + ": preset " + std::to_string(lp.program + 1) + " " + lp.name);
+      }
       if (console && board == 0 && !console->update(*session, p, midi_in.get())) stop = true;
       if (play_console && !play_console->update(p, board)) stop = true;
       if (keys && keys->poll()) stop = true;

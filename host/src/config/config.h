@@ -156,6 +156,15 @@ std::vector<LivePreset> live_presets(const LiveConfig &config, const AllocatorCo
 // Called from: `stepchoir live`, before the session starts.
 std::vector<Binding> live_controls(const LiveConfig &config, size_t motor_count);
 
+// The file's presets and controls for a keyboard that plays only some of the pool's motors (jam:
+// a song plays the others). keyboard: the keyboard's motors as pool indexes, in order; each pool
+// index the presets and controls name becomes its index among them. A motor the keyboard lacks
+// is left out of mute_motors, zones (a zone left with none goes) and [[presets.motors]], and a
+// control muting it goes; each is told in left_out ("FILE:LINE:COLUMN: motor N plays the song").
+// Called from: `stepchoir jam`, before its session starts.
+LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &keyboard,
+                         std::vector<std::string> *left_out);
+
 // The [[controls]] table of a binding, as save_control writes it.
 std::string control_text(const Binding &b);
 
