@@ -88,6 +88,21 @@ TEST_CASE("config: motion keys, a turn's steps from the microsteps, and their mi
   CHECK(error_of("[[boards]]\nboard = \"nano\"\n") == "f.toml:2:9: board 'nano': expected uno or mega");
 }
 
+TEST_CASE("config: a board named by its kind takes as many motors as it has", "[config]") {
+  auto board = [](const std::string &kind, int motors) {
+    std::string text = "[[boards]]\n" + (kind.empty() ? "" : "board = \"" + kind + "\"\n");
+    for (int m = 0; m < motors; ++m) text += "[[boards.motors]]\ndriver = \"a4988\"\n";
+    return text;
+  };
+  CHECK(error_of(board("uno", 4)) == "");
+  CHECK(error_of(board("uno", 5)) == "f.toml:11:1: board 'uno' has 4 motors (motor 3 is its last)");
+  CHECK(error_of(board("mega", 5)) == "");
+  CHECK(error_of(board("mega", 6)) == "f.toml:13:1: board 'mega' has 5 motors (motor 4 is its last)");
+  // A board on a port alone, its kind unsaid (the board tells), up to what the protocol addresses.
+  CHECK(error_of(board("", 5)) == "");
+  CHECK(error_of(board("", 9)) == "f.toml:18:1: a board has at most 8 motors");
+}
+
 TEST_CASE("config: every key is read", "[config]") {
   const LiveConfig c = parse_config(R"(
 a4_hz = 442

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "board/board.h"
+#include "board/vboard_child.h"
 #include "score.h"
 #include "trace.h"
 #include "jack_rig.h"
@@ -66,10 +67,11 @@ int main(int argc, char **argv) {
   app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames at 48 kHz (default 32)")
       ->check(CLI::Range(8, 4096));
   app.add_flag("--jack-realtime", jack_realtime, "run jackd with realtime scheduling (-R)");
-  app.add_option("--board", board_name, "virtual board: uno or mega")->check(CLI::IsMember({"uno", "mega"}));
+  app.add_option("--board", board_name, "virtual board: " + stepchoir::one_of(stepchoir::kBoardKinds))
+      ->check(CLI::IsMember(stepchoir::kBoardKinds));
   std::string link_model = "ideal";
-  app.add_option("--link-model", link_model, "the virtual board's USB bridge: ideal, 16u2, ftdi or ch340")
-      ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
+  app.add_option("--link-model", link_model, "the virtual board's USB bridge: " + stepchoir::one_of(stepchoir::kLinkModels))
+      ->check(CLI::IsMember(stepchoir::kLinkModels));
   int onsets = 200;
   app.add_option("--onsets", onsets, "notes of the key -> first STEP phase, 45-55 ms apart (default 200)")
       ->check(CLI::Range(10, 100000));

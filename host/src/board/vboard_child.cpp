@@ -12,7 +12,15 @@
 #include <string>
 #include <thread>
 
+#include "mega_ramps_14.h"
+#include "uno_cnc_shield_v3.h"
+
 namespace stepchoir {
+
+size_t board_kind_motors(const std::string &kind) {
+  return kind == "uno" ? board::uno_cnc_shield_v3::kMotorCount : kind == "mega" ? board::mega_ramps_14::kMotorCount : 0;
+}
+
 namespace {
 
 // <dir of this program>/stepchoir-vboard.

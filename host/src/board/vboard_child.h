@@ -10,6 +10,23 @@
 
 namespace stepchoir {
 
+// The boards and USB bridge models the virtual board simulates (its --board and --link-model;
+// docs/usb-bridges.md).
+inline const std::vector<std::string> kBoardKinds{"uno", "mega"};
+inline const std::vector<std::string> kLinkModels{"ideal", "16u2", "ftdi", "ch340"};
+
+// How many motors a board of kind `kind` (one of kBoardKinds) drives: its firmware board table's
+// count (uno 4, mega 5); 0 for another name.
+size_t board_kind_motors(const std::string &kind);
+
+// The words of a list as a sentence says them: "uno or mega", "ideal, 16u2, ftdi or ch340".
+inline std::string one_of(const std::vector<std::string> &words) {
+  std::string out;
+  for (size_t i = 0; i < words.size(); ++i)
+    out += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i];
+  return out;
+}
+
 // The virtual board as a child process, for `live`, `play` and `jam` without --port, and
 // `render`. Stopped (SIGTERM) when destroyed.
 class VirtualBoard {

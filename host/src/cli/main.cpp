@@ -10,6 +10,7 @@
 
 #include "board/board.h"
 #include "board/link.h"
+#include "board/vboard_child.h"
 #include "cli/gcode_command.h"
 #include "cli/doctor.h"
 #include "cli/live_cli.h"

@@ -85,7 +85,7 @@ std::unique_ptr<PlayCommand> add_play_commands(CLI::App &app) {
         ->delimiter(',')->check(CLI::IsMember(stepchoir::kBoardKinds));
     s->add_option("--vboard-link", c->vboard_link,
                   "The virtual board's USB bridge (default 16u2, the Uno's and Mega's; docs/usb-bridges.md)")
-        ->check(CLI::IsMember({"ideal", "16u2", "ftdi", "ch340"}));
+        ->check(CLI::IsMember(kLinkModels));
     s->add_option("--config,-c", c->config,
                   "Rig configuration: the board's port and each motor's driver, range, transpose, tuning (default: " +
                       default_config_path() + " if it exists)")

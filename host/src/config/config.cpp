@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "board/vboard_child.h"
 #include "config/toml_read.h"
 
 namespace stepchoir {
@@ -174,14 +175,20 @@ LiveConfig parse_config(const std::string &text, const std::string &source) {
       BoardSettings bs;
       bs.port = get_string(source, *t, "port", "");
       bs.board = get_string(source, *t, "board", bs.board);
-      if (std::find(kBoardKinds.begin(), kBoardKinds.end(), bs.board) == kBoardKinds.end()) fail(source, *t->get("board"), "board '" + bs.board + "': expected uno or mega");
+      if (std::find(kBoardKinds.begin(), kBoardKinds.end(), bs.board) == kBoardKinds.end())
+        fail(source, *t->get("board"), "board '" + bs.board + "': expected " + one_of(kBoardKinds));
+      // A board named by its kind has that kind's motors; one on a port alone, up to the protocol's.
+      const size_t most = t->get("board") ? board_kind_motors(bs.board) : sc::kMaxMotors;
       if (const toml::node *mn = t->get("motors")) {
         const toml::array *motors = mn->as_array();
         if (!motors) fail(source, *mn, "motors: expected [[boards.motors]] tables");
         for (const toml::node &m : *motors) {
           const toml::table *mt = m.as_table();
           if (!mt) fail(source, m, "motors: expected [[boards.motors]] tables");
-          if (bs.motors.size() >= sc::kMaxMotors) fail(source, m, "a board has at most 8 motors");
+          if (bs.motors.size() >= most)
+            fail(source, m, t->get("board") ? "board '" + bs.board + "' has " + std::to_string(most) + " motors (motor " +
+                                                  std::to_string(most - 1) + " is its last)"
+                                            : "a board has at most " + std::to_string(most) + " motors");
           bs.motors.push_back(read_motor(source, *mt, static_cast<uint8_t>(bs.motors.size())));
         }
       }

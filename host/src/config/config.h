@@ -41,9 +41,6 @@ struct MotorSettings {
   MotionSettings motion;      // moves: home, jog, center
 };
 
-// What a virtual board can simulate: a [[boards]] entry's `board`, and --vboard.
-inline const std::vector<std::string> kBoardKinds{"uno", "mega"};
-
 struct BoardSettings {
   std::string port;                   // serial port or link; "" = none given
   std::string board = "uno";          // uno or mega: what the virtual board simulates for this
