@@ -3,7 +3,8 @@
 // mutes them for the keyboard) while keys play on motors 2 and 3; a learned pedal (CC 20) steps
 // to item 2, a plain preset; again to item 3, the song on motors 2 and 3, and CC 21 steps back
 // from it mid-song. Read from the trace: the song on time and in tune, the keys on the other
-// motors, and nothing of the stopped song after the step back.
+// motors, and nothing of the stopped song after the step back. The songs measure the board's
+// crystal, and the host remembers it.
 #include <catch2/catch.hpp>
 
 #include <chrono>
@@ -19,6 +20,7 @@
 #include "e2e_more.h"
 #include "e2e_util.h"
 #include "jack_rig.h"
+#include "known_board.h"
 #include "play_checks.h"
 #include "trace.h"
 #include "vboard_process.h"
@@ -38,7 +40,12 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
   Sender keys;
   const std::string song = write_test_song("setlist.mid");
   const std::string trace_path = e2e::scratch("setlist.csv"), config_path = e2e::scratch("setlist.toml");
-  VboardProcess vb({"--board", "uno", "--trace", trace_path, "--quiet", "--no-measure"});
+  // A board the host remembers with an exact crystal, whose crystal is 300 ppm fast: each song
+  // measures it, and the host remembers what the song measured.
+  const uint64_t id = 0x0807060504030231;
+  const e2e::KnownBoard known("setlist", id, 0.0);
+  VboardProcess vb({"--board", "uno", "--eeprom", known.eeprom, "--clock-ppm", "300", "--trace", trace_path, "--quiet",
+                    "--no-measure"});
   std::ofstream(config_path) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n\n"
                              << "[[presets]]\nprogram = 1\nname = \"plain\"\n\n"
                              << "[[presets]]\nprogram = 2\nname = \"duet\"\nmute_motors = [0, 1]\n\n"
@@ -110,4 +117,10 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
   std::printf("setlist: the encore's last step %.1f ms after the step back\n", (last_s - back_s) * 1e3);
   CHECK(encore_steps > 0);
   CHECK(last_s - back_s < 0.5);
+  // The songs' measure of the crystal, remembered for the next evening.
+  const std::optional<stepchoir::BoardRecord> record =
+      stepchoir::recall_board(id, e2e::scratch("setlist-cache") + "/stepchoir/boards.toml");
+  REQUIRE(record);
+  INFO("remembered: crystal " << record->clock_ppm << " ppm (+/- " << record->sigma_ppm << ")");
+  CHECK(std::fabs(record->clock_ppm - 300) < 20);
 }

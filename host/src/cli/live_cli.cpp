@@ -125,8 +125,9 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     // A board met before (config/board_memory.h): the keyboard plays in tune with its crystal,
     // and a setlist song starts from its remembered rate.
     std::optional<BoardRecord> known;
+    std::optional<uint64_t> id;
     if (vboards.empty()) {
-      if (const std::optional<uint64_t> id = identify_board(*boards.back())) {
+      if ((id = identify_board(*boards.back()))) {
         try {
           known = recall_board(*id);
         } catch (const std::exception &e) {
@@ -136,7 +137,7 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
       }
     }
     pool.push_back(LiveBoard{&boards.back()->link(), caps.motor_count, crystal_hz(caps.f_cpu_hz, known)});
-    setlist_boards.push_back(SetlistBoard{ports[b], caps, settings, known});
+    setlist_boards.push_back(SetlistBoard{ports[b], caps, settings, known, id});
   }
   AllocatorConfig alloc = pool_config(pool, policy);
   apply_allocation(cfg, &alloc);

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "cli/jam_link.h"
+#include "config/board_memory.h"
 #include "config/rig.h"
 #include "song/song.h"
 
@@ -101,7 +102,20 @@ void SetlistRunner::end_song(LiveSession &session) {
   stop_song_.store(true);
   for (std::thread &t : threads_) t.join();
   threads_.clear();
+  for (size_t k = 0; k < players_.size(); ++k) {
+    SetlistBoard &sb = boards_[player_boards_[k]];
+    const ClockSync &clock = players_[k]->clock();
+    if (!clock.has_rate()) continue;
+    sb.known = BoardRecord{sb.caps.board_name, clock.ppm(), clock.rate_sigma_ppm()};
+    if (!sb.id) continue;
+    try {
+      remember_board(*sb.id, *sb.known);
+    } catch (const std::exception &e) {
+      say_(sb.path + ": " + e.what() + " (the board's crystal is not remembered)");
+    }
+  }
   players_.clear();  // each left its motors silent
+  player_boards_.clear();
   gate_.reset();
   for (size_t b = 0; b < boards_.size(); ++b) session.set_song_motors(b, 0);
   session.set_song_pool(0);
@@ -157,6 +171,7 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
     if (playing > 1) po.start_gate = [gate = gate_.get(), b](uint64_t now_us) { return gate->ready(b, now_us); };
     auto board = std::make_unique<Board>(std::make_unique<JamLink>(session, b, boards_[b].path));
     players_.push_back(std::make_unique<Player>(std::move(board), boards_[b].caps, sp.events[b], sp.duration_s, po));
+    player_boards_.push_back(b);
     Player *player = players_.back().get();
     threads_.emplace_back([this, player, b] {
       player->run(stop_song_, pause_, {});

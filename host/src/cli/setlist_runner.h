@@ -31,6 +31,8 @@ struct SetlistBoard {
   Caps caps;                                // from its hello
   const BoardSettings *settings = nullptr;  // the rig file's entry, if any
   std::optional<BoardRecord> known;         // a board met before: its crystal (board_memory.h)
+  std::optional<uint64_t> id;               // its id, when it has one: each song's measure of its
+                                            // crystal is remembered under it
 };
 
 class SetlistRunner {
@@ -53,7 +55,9 @@ class SetlistRunner {
   // Where the runner's messages ("setlist N/M NAME") go from now on; by default a "live: "
   // line on stdout. Called from: run_live (the console takes them), before poll().
   void set_say(std::function<void(const std::string &)> say) { say_ = std::move(say); }
-  // Ends a song that plays (every player stopped and joined, its motors given back).
+  // Ends a song that plays (every player stopped and joined, its motors given back). What each
+  // player measured of its board's crystal is where the next song starts, and is remembered
+  // (config/board_memory.h) for a board with an id, as play does.
   // Called from: run_live, before session.stop().
   void stop(LiveSession &session);
 
@@ -87,6 +91,7 @@ class SetlistRunner {
   std::atomic<size_t> finished_{0};
   std::unique_ptr<StartGate> gate_;
   std::vector<std::unique_ptr<Player>> players_;
+  std::vector<size_t> player_boards_;  // players_[k] plays on boards_[player_boards_[k]]
   std::vector<std::thread> threads_;
   std::function<void(const std::string &)> say_ = [](const std::string &line) {
     std::printf("live: %s\n", line.c_str());
