@@ -40,5 +40,5 @@ cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTE
 cmake --build build-tsan -j"$(nproc)" --target test_live
 TSAN_OPTIONS="halt_on_error=1 suppressions=$PWD/tests/sanitizers/tsan.supp" build-tsan/bin/test_live
 
-# Fuzzing, bounded: each target 20 s; any crash, leak, hang or sanitizer report fails.
-tools/fuzz.sh 20
+# Fuzzing, bounded: each target 15 s; any crash, leak, hang or sanitizer report fails.
+tools/fuzz.sh 15

@@ -3,8 +3,9 @@
 // that never fires stops the motor with a clear error, and `jog` follows the seed's Torricelli
 // ramp, checked step by step from the trace in board cycles.
 //
-// The boards run in real time: the host feeds the watchdog while a motor moves, and a machine
-// that stalls the simulation past the watchdog's 300 ms stops the move (hence [pacing]).
+// The boards run paced, the homing ones at twice real time: the host feeds the
+// watchdog at least every 100 ms while a motor moves, 200 ms of board time, within its 300 ms;
+// a machine that stalls the simulation past it stops the move (hence [pacing]).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -63,7 +64,7 @@ TEST_CASE("home: carriages at either end or off centre end in the middle, the ra
   for (const Case &c : cases) {
     INFO(c.board << " from " << c.start);
     const std::string trace_path = scratch("home.csv");
-    VboardProcess vb({"--board", c.board, "--trace", trace_path, "--quiet", "--no-measure", "--start-position",
+    VboardProcess vb({"--board", c.board, "--speed", "2", "--trace", trace_path, "--quiet", "--no-measure", "--start-position",
                       std::to_string(c.start)});
     const std::string config = motion_config("home", vb.pty(), "home_speed = 30.0\n");
     std::vector<std::string> args{"home", "--port", vb.pty(), "--config", config};
@@ -97,7 +98,7 @@ TEST_CASE("home: carriages at either end or off centre end in the middle, the ra
 
 TEST_CASE("home: a switch that never fires is reported, and the motor stops within its search", "[play][pacing]") {
   const std::string trace_path = scratch("home-dead.csv");
-  VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--dead-switch", "0"});
+  VboardProcess vb({"--board", "mega", "--speed", "2", "--trace", trace_path, "--quiet", "--no-measure", "--dead-switch", "0"});
   const std::string config = motion_config("home-dead", vb.pty(), "home_speed = 40.0\n");
   int status = -1;
   const std::string out = run_stepchoir_all({"home", "--port", vb.pty(), "--config", config, "--motor", "0"}, &status);

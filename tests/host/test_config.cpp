@@ -98,7 +98,8 @@ TEST_CASE("config: a board named by its kind takes as many motors as it has", "[
   CHECK(error_of(board("uno", 5)) == "f.toml:11:1: board 'uno' has 4 motors (motor 3 is its last)");
   CHECK(error_of(board("mega", 5)) == "");
   CHECK(error_of(board("mega", 6)) == "f.toml:13:1: board 'mega' has 5 motors (motor 4 is its last)");
-  // A board on a port alone, its kind unsaid (the board tells), up to what the protocol addresses.
+  // A board whose kind is unsaid (its port, here or on the command line, tells it): up to what
+  // the protocol addresses.
   CHECK(error_of(board("", 5)) == "");
   CHECK(error_of(board("", 9)) == "f.toml:18:1: a board has at most 8 motors");
 }

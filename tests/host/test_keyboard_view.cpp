@@ -1,11 +1,14 @@
 // test_keyboard_view.cpp: the rig file's presets and controls as jam's keyboard takes them, when
 // a song plays some of the pool's motors (config.h keyboard_view): pool numbers become the
-// keyboard's own, what names a song motor is left out and told where.
+// keyboard's own, what names a song motor is left out and told where; and a control learned on
+// jam's console is saved by the rig's motor number (cli/learn_prompt.h).
 #include <catch2/catch.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "cli/learn_prompt.h"
 #include "config/config.h"
 
 using namespace stepchoir;
@@ -97,4 +100,47 @@ TEST_CASE("config: with every motor the keyboard's, jam's view is the file's", "
   CHECK(view.presets[0].motors.size() == 2);
   CHECK(view.controls.size() == 3);
   CHECK(view.controls[1].binding.motor == 0);
+}
+
+TEST_CASE("console: jam's keyboard learns a motor by the rig's number and saves it so", "[config]") {
+  const std::vector<size_t> shown = {2, 3};  // the song on motors 0 and 1
+  CHECK(keyboard_motor(shown, 3) == std::optional<uint8_t>(1));
+  CHECK(keyboard_motor(shown, 2) == std::optional<uint8_t>(0));
+  CHECK_FALSE(keyboard_motor(shown, 1));  // the song's
+  Binding learned;
+  learned.action = Action::kMuteMotor;
+  learned.cc = 20;
+  learned.motor = 1;  // the keyboard's second motor
+  CHECK(rig_binding(learned, shown).motor == 3);
+  learned.action = Action::kPanic;
+  learned.motor = 0;
+  CHECK(rig_binding(learned, shown).motor == 0);  // no motor to map
+  // Saved as the rig counts it, the control reads back onto the same keyboard motor.
+  LiveConfig config;
+  learned.action = Action::kMuteMotor;
+  learned.motor = 1;
+  config.controls.push_back(ControlSettings{rig_binding(learned, shown), "f.toml:1:1"});
+  const LiveConfig view = keyboard_view(config, {2, 3}, nullptr);
+  REQUIRE(view.controls.size() == 1);
+  CHECK(view.controls[0].binding.motor == 1);
+}
+
+TEST_CASE("config: a preset whose zones are all the song's leaves jam's keyboard silent, not free", "[config]") {
+  const LiveConfig config = parse_config(R"([[presets]]
+program = 1
+name = "bass split"
+[[presets.zones]]
+highest = 59
+motors = [0]
+[[presets.zones]]
+lowest = 60
+motors = [1]
+)", "f.toml");
+  std::vector<std::string> left_out;
+  const LiveConfig view = keyboard_view(config, {2, 3}, &left_out);
+  const PresetSettings &p = view.presets.at(0);
+  CHECK(p.zones.empty());
+  CHECK(p.mute_motors == std::vector<uint8_t>{0, 1});
+  REQUIRE(left_out.size() == 3);
+  CHECK(left_out[2] == "f.toml:1:1: preset 'bass split': no zone has a keyboard motor: the keyboard is silent in it");
 }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "board/vboard_child.h"
 #include "pitch_bench.h"
 
 namespace pitch_bench {
@@ -51,7 +52,9 @@ int main(int argc, char **argv) {
   Options opt;
   std::string notes_text;
   CLI::App app{"stepchoir-bench-pitch: pitch and timing of every motor across MIDI 24-108 on the virtual board"};
-  app.add_option("--board", opt.board_name, "uno or mega")->required()->check(CLI::IsMember({"uno", "mega"}));
+  app.add_option("--board", opt.board_name, stepchoir::one_of(stepchoir::kBoardKinds))
+      ->required()
+      ->check(CLI::IsMember(stepchoir::kBoardKinds));
   app.add_option("--out", opt.out_dir, "directory for pitch-<board>.md (default bench/results)");
   app.add_option("--round-seconds", opt.round_seconds, "board time per round of notes (default 0.5)")
       ->check(CLI::Range(0.05, 10.0));

@@ -90,7 +90,8 @@ class Board {
   // the capabilities the firmware sends unasked when it starts; without them (a board that did
   // not reset) it asks with hello(hello_timeout_ms). Throws when the board never answers.
   Caps greet(int boot_wait_ms = kBootWaitMs, int hello_timeout_ms = 1500);
-  // Longer than either bootloader holds the board (tools/vboard/src/board_config.cpp).
+  // Longer than either bootloader holds the board when no byte comes
+  // (tools/vboard/src/board_config.cpp).
   static constexpr int kBootWaitMs = 2000;
   // Capabilities that come sooner than this after the open are stale (shorter than any
   // bootloader, longer than any bridge holds bytes).

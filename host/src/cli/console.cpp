@@ -1,6 +1,7 @@
 // console.cpp: the performer's console on a terminal, with curses (see console.h).
 #include "cli/console.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "cli/learn_prompt.h"
@@ -54,7 +55,7 @@ Console::Console(std::string learn_path, std::vector<size_t> motor_numbers)
 
 bool Console::handle_keys(LiveSession &session, int timeout_ms) {
   if (const auto b = session.learned()) {
-    notice("learn: " + save_learned(learn_path_, *b));
+    notice("learn: " + save_learned(learn_path_, rig_binding(*b, motor_numbers_)));
     footer_.learning.clear();
   }
   for (int key = terminal_.key(timeout_ms); key != Terminal::kNoKey; key = terminal_.key(0)) apply(session, key);
@@ -99,14 +100,23 @@ void Console::submit(LiveSession &session) {
     footer_.typing = false;  // Enter alone leaves the prompt
     return;
   }
+  // A motor by the number the screen shows (the rig's count), played by its keyboard index.
   std::string why;
-  const auto r = parse_learn_request(typed, motor_numbers_.size(), &why);
+  size_t shown_count = 0;
+  for (size_t n : motor_numbers_) shown_count = std::max(shown_count, n + 1);
+  const auto r = parse_learn_request(typed, shown_count, &why);
   if (!r) {
     notice("learn: " + why);
     return;
   }
+  const std::optional<uint8_t> motor =
+      r->action == Action::kMuteMotor ? keyboard_motor(motor_numbers_, r->motor) : std::optional<uint8_t>(0);
+  if (!motor) {
+    notice("learn: motor " + std::to_string(r->motor) + " is not the keyboard's");
+    return;
+  }
   footer_.typing = false;
-  if (!session.learn(r->action, r->motor)) {
+  if (!session.learn(r->action, *motor)) {
     notice("the stage queue is full: learn again");
     return;
   }

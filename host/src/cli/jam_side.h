@@ -32,13 +32,13 @@ struct BoardRun {
   std::optional<BoardRecord> known;
 };
 
-// What jam runs besides the song's players. Members in the order they must be built (and are
-// destroyed backwards: the MIDI input before the session it feeds).
+// What jam runs besides the song's players. Destroyed backwards: the timelines, then the MIDI
+// input, before the session and the clock queues it feeds.
 struct JamSide {
-  std::unique_ptr<LiveSession> session;
-  std::unique_ptr<MidiIn> midi_in;
   // --midi-clock: one clock queue and timeline a board's player.
   std::vector<std::unique_ptr<ClockQueue>> clock_queues;
+  std::unique_ptr<LiveSession> session;
+  std::unique_ptr<MidiIn> midi_in;
   std::vector<std::unique_ptr<MidiClockTimeline>> timelines;
   ConsoleSources console_sources;  // what jam's console shows besides the session
 };

@@ -15,9 +15,10 @@ bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t
   using Cause = LinkRepair::Cause;
   const BoardStats &st = session.board_stats(b);
   if (r.state == State::kUp) {
-    const uint64_t heard = st.heard_us.load();
+    // Silent: the reader, listening now, has heard nothing for so long.
+    const uint64_t heard = st.heard_us.load(), read = st.read_us.load(), now_us = monotonic_us();
     const bool failed = st.write_failed.load() || st.read_failed.load();
-    const bool silent = heard && monotonic_us() > heard + uint64_t(Board::kSilentMs) * 1000;
+    const bool silent = heard && now_us < read + kReaderGapUs && now_us > heard + uint64_t(Board::kSilentMs) * 1000;
     if (!failed && !st.restarted.load() && !silent) return false;
     r.cause = failed ? Cause::kLost : st.restarted.load() ? Cause::kRestarted : Cause::kSilent;
     say(path + (r.cause == Cause::kLost        ? ": link lost; reconnecting"

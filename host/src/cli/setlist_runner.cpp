@@ -105,7 +105,7 @@ void SetlistRunner::end_song(LiveSession &session) {
   for (size_t k = 0; k < players_.size(); ++k) {
     SetlistBoard &sb = boards_[player_boards_[k]];
     const ClockSync &clock = players_[k]->clock();
-    if (!clock.has_rate()) continue;
+    if (!board_ok_[player_boards_[k]] || !clock.has_rate()) continue;
     sb.known = BoardRecord{sb.caps.board_name, clock.ppm(), clock.rate_sigma_ppm()};
     if (!sb.id) continue;
     try {
@@ -143,6 +143,7 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
   size_t playing = 0;
   for (const auto &ids : sp.song_ids) playing += !ids.empty();
   gate_ = std::make_unique<StartGate>(boards_.size());
+  board_ok_.assign(boards_.size(), 0);
   for (size_t b = 0; b < boards_.size(); ++b) {
     if (sp.song_ids[b].empty()) {
       gate_->leave(b);
@@ -174,7 +175,7 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
     player_boards_.push_back(b);
     Player *player = players_.back().get();
     threads_.emplace_back([this, player, b] {
-      player->run(stop_song_, pause_, {});
+      board_ok_[b] = player->run(stop_song_, pause_, {});
       gate_->leave(b);
       finished_.fetch_add(1);
     });

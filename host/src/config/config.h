@@ -156,8 +156,9 @@ std::vector<Binding> live_controls(const LiveConfig &config, size_t motor_count)
 // The file's presets and controls for a keyboard that plays only some of the pool's motors (jam:
 // a song plays the others). keyboard: the keyboard's motors as pool indexes, in order; each pool
 // index the presets and controls name becomes its index among them. A motor the keyboard lacks
-// is left out of mute_motors, zones (a zone left with none goes) and [[presets.motors]], and a
-// control muting it goes; each is told in left_out ("FILE:LINE:COLUMN: motor N plays the song").
+// is left out of mute_motors, zones (a zone left with none goes; a preset whose zones all go
+// mutes every keyboard motor) and [[presets.motors]], and a control muting it goes; each is told
+// in left_out ("FILE:LINE:COLUMN: motor N plays the song").
 // Called from: `stepchoir jam`, before its session starts.
 LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &keyboard,
                          std::vector<std::string> *left_out);

@@ -41,6 +41,13 @@ LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &k
       z.motors = keep(z.motors, keyboard, z.where, told);
       if (!z.motors.empty()) zones.push_back(z);
     }
+    if (!p.zones.empty() && zones.empty()) {
+      // Zones that gave the keyboard nothing: it stays silent in this preset (a preset without
+      // zones would play every key on every motor).
+      told.push_back(p.where + ": preset '" + p.name + "': no zone has a keyboard motor: the keyboard is silent in it");
+      p.mute_motors.clear();
+      for (size_t k = 0; k < keyboard.size(); ++k) p.mute_motors.push_back(static_cast<uint8_t>(k));
+    }
     p.zones = zones;
     std::vector<PresetMotorSettings> motors;
     for (PresetMotorSettings m : p.motors) {

@@ -350,14 +350,22 @@ long BoardLink::read_replies(uint8_t *out, size_t len, int timeout_ms) {
 void BoardLink::reader_loop() {
   sc::FrameDecoder decoder;
   uint8_t buf[256];
+  uint64_t last_pass = 0;
   while (!stop_reader_.load(std::memory_order_acquire)) {
     const uint32_t detached = detach_gen_.load(std::memory_order_acquire);
     if (detached != attach_gen_.load(std::memory_order_acquire)) {
       reader_parked_gen_.store(detached, std::memory_order_release);
       decoder = sc::FrameDecoder();
+      last_pass = 0;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
       continue;
     }
+    // A pass long after the last (this thread held up) is not the board's silence.
+    const uint64_t pass = monotonic_us();
+    if (last_pass && pass > last_pass + kReaderGapUs)
+      stats_.heard_us.fetch_add(pass - last_pass, std::memory_order_relaxed);
+    last_pass = pass;
+    stats_.read_us.store(pass, std::memory_order_relaxed);
     long n = -1;
     try {
       n = link_.load(std::memory_order_acquire)->read(buf, sizeof buf, 50);

@@ -33,6 +33,7 @@
 #include <thread>
 #include <vector>
 
+#include "board/board.h"
 #include "board/link.h"
 #include "live/coalescer.h"
 #include "live/latency_histogram.h"
@@ -47,6 +48,10 @@ using UpdateQueue = moodycamel::BlockingReaderWriterQueue<MotorUpdate>;
 constexpr int kHeartbeatMs = sc::kWatchdogDefaultMs / 4;
 // Status request (link health) this often.
 constexpr int kStatusEveryMs = 1000;
+static_assert(Board::kSilentMs >= 3 * kStatusEveryMs, "a silent board has missed three status requests");
+// The reader passes at least every 50 ms (its read's timeout); a longer gap is its thread held
+// up, not the board's silence (BoardStats::heard_us).
+constexpr uint64_t kReaderGapUs = 200000;
 // Every motor's state is sent again this often, so that a frame the board lost (line noise,
 // an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
 // period keeps its phase; silence to a silent motor does nothing.
@@ -66,10 +71,12 @@ struct BoardStats {
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
   std::atomic<uint64_t> last_status_us{0}; // when the latest status reply came (monotonic_us)
-  // When the board last sent a whole frame, or its link started or was attached (monotonic_us).
-  // A board that sends nothing while asked for its status every second has stopped: a Mega
-  // reset with its link up stays in its bootloader while bytes keep coming (Board::kSilentMs).
-  std::atomic<uint64_t> heard_us{0};
+  // When the board last sent a whole frame, or its link started or was attached (monotonic_us),
+  // moved on by any time the reader did not listen (its thread held up); and when the reader
+  // last read. A board that sends nothing while asked for its status every second has stopped:
+  // a Mega reset with its link up stays in its bootloader while bytes keep coming
+  // (Board::kSilentMs).
+  std::atomic<uint64_t> heard_us{0}, read_us{0};
   std::atomic<uint32_t> status_frames_bad{0}, status_overruns{0};
   std::atomic<bool> watchdog_tripped{false};
   std::atomic<uint8_t> sounding_mask{0};   // bit m: the board said motor m is sounding

@@ -278,7 +278,8 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
   anchor(0.0, begin);
   sent_score_ = 0;
   playing_ = true;
-  if (opt_.exclusive && !opt_.board_time) heard_us_ = monotonic_us();
+  last_read_us_ = monotonic_us();
+  if (opt_.exclusive && !opt_.board_time) heard_us_ = last_read_us_;
   const double clock_every_us = (opt_.board_time ? kBoardTimeClockEveryS : opt_.clock_every_s) * 1e6;
   bool paused = false;
   double paused_at = 0;
@@ -292,14 +293,6 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
       return stop.load();
     }
     uint64_t now = monotonic_us();
-    // Asked for its clock and status several times a second, the board answers; one that
-    // sent nothing for so long has stopped (a Mega reset with its link up, held in its
-    // bootloader by these very bytes) and is opened again after a silence. A shared board's
-    // (jam, a setlist song) is live's to watch.
-    if (heard_us_ && now > heard_us_ + uint64_t(Board::kSilentMs) * 1000) {
-      board_silent_ = board_lost_ = true;
-      continue;
-    }
     if (!opt_.song_clock && pause.load() != paused) {
       paused = !paused;
       if (paused) {
@@ -324,6 +317,14 @@ bool Player::run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
     if (!paused && on_clock && !send_due(now)) continue;
     if (!read_replies(1)) continue;
     now = monotonic_us();
+    // Asked for its clock and status several times a second, the board answers; one that sent
+    // nothing while this player listened for so long has stopped (a Mega reset with its link
+    // up, held in its bootloader by these very bytes) and is opened again after a silence. A
+    // shared board's (jam, a setlist song) is live's to watch.
+    if (heard_us_ && now > heard_us_ + uint64_t(Board::kSilentMs) * 1000) {
+      board_silent_ = board_lost_ = true;
+      continue;
+    }
     const double pos = paused ? paused_at : score_now(now);
     if (now - last_progress >= 100000) {
       last_progress = now;

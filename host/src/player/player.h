@@ -137,7 +137,8 @@ class Player {
   // Plays to the end (or forever with loop) unless *stop is set; *pause pauses (every motor
   // silent, the board's queue emptied) and resumes where it was. on_progress is called about
   // every 100 ms, also while a lost board is being opened again (stats.reconnecting; the
-  // greeting of a board that came back holds it up to about 2.5 s). Leaves every motor silent
+  // greeting of a board that came back holds it up to about 2.5 s, of one that went silent up to
+  // Board::kQuietWaitMs and a hello). Leaves every motor silent
   // and the drivers off. Returns false when the board was lost for good (the reason in
   // error()); true when *stop ended it, also while the board was lost.
   bool run(const std::atomic<bool> &stop, const std::atomic<bool> &pause,
@@ -161,6 +162,8 @@ class Player {
   // Playing on its own board, a status request this often (us): the console's carriages and
   // endstop hits.
   static constexpr uint64_t kStatusEveryUs = 250000;
+  // A pause between two reads longer than this is the loop's, not the board's silence.
+  static constexpr uint64_t kListenGapUs = 100000;
   bool send_payload(const std::vector<uint8_t> &payload, uint64_t *sent_us = nullptr);
   void send_clock_request(uint64_t now_us);
   bool read_replies(int timeout_ms);
@@ -198,7 +201,10 @@ class Player {
   // The board sent nothing for Board::kSilentMs while the song played (play: it is asked for
   // its clock and status several times a second): it is opened again after a silence.
   bool board_silent_ = false;
-  uint64_t heard_us_ = 0;  // when the board last sent a whole frame (monotonic_us), once playing
+  // When the board last sent a whole frame (monotonic_us), once playing; moved on by the time
+  // this player did not listen (its loop held up elsewhere), which is not the board's silence.
+  uint64_t heard_us_ = 0;
+  uint64_t last_read_us_ = 0;  // when read_replies last returned
   // Song time s (in loop k: k * duration + s) -> board ticks (see the top; player/timeline.h).
   Timeline line_;
   void anchor(double score_s, uint64_t now_us);  // sets the timeline: score_s one lead after now

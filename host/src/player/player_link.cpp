@@ -79,15 +79,18 @@ void Player::send_clock_request(uint64_t now_us) {
 bool Player::read_replies(int timeout_ms) {
   uint8_t buf[512];
   long n = -1;
+  const uint64_t before = monotonic_us();
+  if (heard_us_ && last_read_us_ && before > last_read_us_ + kListenGapUs) heard_us_ += before - last_read_us_;
   try {
     n = board_->link().read(buf, sizeof buf, timeout_ms);
   } catch (const std::exception &) {
   }
+  const uint64_t now = monotonic_us();
+  last_read_us_ = now;
   if (n < 0) {
     board_lost_ = true;
     return false;
   }
-  const uint64_t now = monotonic_us();
   for (long i = 0; i < n; ++i) {
     if (decoder_.push(buf[i]) != sc::kFrameOk) continue;
     if (heard_us_) heard_us_ = now;
@@ -212,7 +215,8 @@ bool Player::reopen(const std::atomic<bool> &stop) {
     }
   }
   board_lost_ = board_restarted_ = board_silent_ = false;
-  if (heard_us_) heard_us_ = monotonic_us();
+  last_read_us_ = monotonic_us();
+  if (heard_us_) heard_us_ = last_read_us_;
   stats_.reconnecting = false;
   decoder_ = sc::FrameDecoder();
   send_payload(watchdog_payload(sc::kWatchdogDefaultMs));
