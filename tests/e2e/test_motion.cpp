@@ -3,9 +3,9 @@
 // that never fires stops the motor with a clear error, and `jog` follows the seed's Torricelli
 // ramp, checked step by step from the trace in board cycles.
 //
-// The boards run paced, the homing ones at twice real time: the host feeds the
-// watchdog at least every 100 ms while a motor moves, 200 ms of board time, within its 300 ms;
-// a machine that stalls the simulation past it stops the move (hence [pacing]).
+// The boards run paced, the homing ones at twice real time: the host heartbeats every 50 ms
+// (and its loop's time) while a motor moves, 100 ms of board time, within the watchdog's
+// 300 ms; a machine that stalls the host past it stops the move (hence [pacing]).
 #include <catch2/catch.hpp>
 
 #include <algorithm>

@@ -78,9 +78,9 @@ TEST_CASE("config: jam's keyboard takes the presets and controls by its own moto
   // Each song motor named, where: mute_motors' 0, both of the low zone's, the high zone's 1,
   // the [[presets.motors]] entry of motor 1, the control of motor 0.
   const std::vector<std::string> told = {
-      "f.toml:4:15: motor 0 plays the song",  "f.toml:7:10: motor 0 plays the song",
-      "f.toml:7:10: motor 1 plays the song",  "f.toml:10:10: motor 1 plays the song",
-      "f.toml:15:9: motor 1 plays the song", "f.toml:22:1: motor 0 plays the song"};
+      "f.toml:4:15: motor 0 plays the song: left out of the keyboard's presets and controls",  "f.toml:7:10: motor 0 plays the song: left out of the keyboard's presets and controls",
+      "f.toml:7:10: motor 1 plays the song: left out of the keyboard's presets and controls",  "f.toml:10:10: motor 1 plays the song: left out of the keyboard's presets and controls",
+      "f.toml:15:9: motor 1 plays the song: left out of the keyboard's presets and controls", "f.toml:22:1: motor 0 plays the song: left out of the keyboard's presets and controls"};
   CHECK(left_out == told);
 
   // Over the keyboard's pool of two, the view's presets and controls hold; the file's do not.

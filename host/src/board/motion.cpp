@@ -10,6 +10,11 @@
 namespace stepchoir {
 namespace {
 
+// While a motor moves the host heartbeats this often, plus its loop's time: a sixth of the
+// firmware's watchdog, so that a virtual board run at twice real time still gets one every
+// 100 ms of its own time, a third of the watchdog.
+constexpr int kMoveHeartbeatMs = sc::kWatchdogDefaultMs / 6;
+
 // A speed in mm/s as the board's steps/s, within what a move may take.
 uint16_t steps_per_s(double mm_per_s, const MotionSettings &ms) {
   const double v = std::round(mm_per_s * ms.steps_per_mm);
@@ -49,7 +54,7 @@ MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int6
   const auto deadline = clock::now() + std::chrono::duration_cast<clock::duration>(
                                            std::chrono::duration<double>(move_seconds(b.steps, b.speed_min)));
   for (;;) {
-    const auto reply = board.wait_reply(sc::kMsgMoveDone, 100);
+    const auto reply = board.wait_reply(sc::kMsgMoveDone, kMoveHeartbeatMs);
     for (size_t i = errors_before; i < board.errors().size(); ++i) {
       const BoardError &e = board.errors()[i];
       if (e.type == sc::kMsgMove || e.type == sc::kMsgHeartbeat)
@@ -73,7 +78,7 @@ MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int6
       board.send({sc::kMsgStopAll});
       throw std::runtime_error(motor_name(port, motor) + ": the move did not end in time: every motor stopped");
     }
-    board.send({sc::kMsgHeartbeat});  // keeps the watchdog fed while the motor moves
+    board.send({sc::kMsgHeartbeat});  // keeps the watchdog fed while the motor moves (every kMoveHeartbeatMs)
   }
 }
 

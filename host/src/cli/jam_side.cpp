@@ -48,7 +48,7 @@ JamSide start_jam(const std::vector<BoardRun> &boards, const Rig &rig, Policy po
   }
   std::vector<std::string> left_out;
   const LiveConfig view = keyboard_view(rig.config, keyboard, &left_out);
-  for (const std::string &w : left_out) std::fprintf(stderr, "jam: warning: %s: left out of the keyboard's presets\n", w.c_str());
+  for (const std::string &w : left_out) std::fprintf(stderr, "jam: warning: %s\n", w.c_str());
   std::vector<LivePreset> presets = live_presets(view, alloc);
   const std::vector<Binding> controls = live_controls(view, alloc.motor_count);
   session = std::make_unique<LiveSession>(lbs, alloc);

@@ -32,8 +32,8 @@ struct BoardRun {
   std::optional<BoardRecord> known;
 };
 
-// What jam runs besides the song's players. Destroyed backwards: the timelines, then the MIDI
-// input, before the session and the clock queues it feeds.
+// What jam runs besides the song's players. Built and destroyed in member order, backwards on
+// the way out: the MIDI input goes before the session and the clock queues it feeds.
 struct JamSide {
   // --midi-clock: one clock queue and timeline a board's player.
   std::vector<std::unique_ptr<ClockQueue>> clock_queues;

@@ -16,7 +16,8 @@ bool repair_link(LiveSession &session, size_t b, const std::string &path, size_t
   const BoardStats &st = session.board_stats(b);
   if (r.state == State::kUp) {
     // Silent: the reader, listening now, has heard nothing for so long.
-    const uint64_t heard = st.heard_us.load(), read = st.read_us.load(), now_us = monotonic_us();
+    const uint64_t read = st.read_us.load(std::memory_order_acquire);  // before heard_us (the reader's order)
+    const uint64_t heard = st.heard_us.load(), now_us = monotonic_us();
     const bool failed = st.write_failed.load() || st.read_failed.load();
     const bool silent = heard && now_us < read + kReaderGapUs && now_us > heard + uint64_t(Board::kSilentMs) * 1000;
     if (!failed && !st.restarted.load() && !silent) return false;

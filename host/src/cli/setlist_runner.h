@@ -76,9 +76,9 @@ class SetlistRunner {
     uint32_t pool_motors = 0;
   };
   void enter(size_t index, LiveSession &session);
-  // Every song's end (its own, a step away, stop): what each player that ended well measured of
-  // its board's crystal is where the board's next song starts, and is remembered
-  // (config/board_memory.h) for a board with an id, as play does.
+  // Every song's end (its own, a step away, stop): what each player measured of its board's
+  // crystal, unless it lost the board for good, is where the board's next song starts, and is
+  // remembered (config/board_memory.h) for a board with an id, as play does.
   void end_song(LiveSession &session);
 
   std::vector<SetlistItem> items_;
@@ -93,7 +93,7 @@ class SetlistRunner {
   std::unique_ptr<StartGate> gate_;
   std::vector<std::unique_ptr<Player>> players_;
   std::vector<size_t> player_boards_;  // players_[k] plays on boards_[player_boards_[k]]
-  std::vector<char> board_ok_;  // board b's player's run() ended well (set by its thread, read after join)
+  std::vector<char> board_ok_;  // board b's player did not lose it for good (its thread's run(); read after join)
   std::vector<std::thread> threads_;
   std::function<void(const std::string &)> say_ = [](const std::string &line) {
     std::printf("live: %s\n", line.c_str());

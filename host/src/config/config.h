@@ -158,7 +158,7 @@ std::vector<Binding> live_controls(const LiveConfig &config, size_t motor_count)
 // index the presets and controls name becomes its index among them. A motor the keyboard lacks
 // is left out of mute_motors, zones (a zone left with none goes; a preset whose zones all go
 // mutes every keyboard motor) and [[presets.motors]], and a control muting it goes; each is told
-// in left_out ("FILE:LINE:COLUMN: motor N plays the song").
+// in left_out ("FILE:LINE:COLUMN: motor N plays the song: left out of ...").
 // Called from: `stepchoir jam`, before its session starts.
 LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &keyboard,
                          std::vector<std::string> *left_out);

@@ -10,6 +10,8 @@ namespace stepchoir {
 
 namespace {
 
+constexpr const char *kSongMotor = " plays the song: left out of the keyboard's presets and controls";
+
 // Pool index -> its index among the keyboard's motors, or -1.
 int keyboard_index(const std::vector<uint8_t> &keyboard, uint8_t motor) {
   const auto it = std::find(keyboard.begin(), keyboard.end(), motor);
@@ -23,7 +25,7 @@ std::vector<uint8_t> keep(const std::vector<uint8_t> &motors, const std::vector<
   for (uint8_t m : motors) {
     const int k = keyboard_index(keyboard, m);
     if (k >= 0) out.push_back(static_cast<uint8_t>(k));
-    else left_out.push_back(where + ": motor " + std::to_string(m) + " plays the song");
+    else left_out.push_back(where + ": motor " + std::to_string(m) + kSongMotor);
   }
   return out;
 }
@@ -53,7 +55,7 @@ LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &k
     for (PresetMotorSettings m : p.motors) {
       const int k = keyboard_index(keyboard, m.motor);
       if (k < 0) {
-        told.push_back(m.where + ": motor " + std::to_string(m.motor) + " plays the song");
+        told.push_back(m.where + ": motor " + std::to_string(m.motor) + kSongMotor);
         continue;
       }
       m.motor = static_cast<uint8_t>(k);
@@ -66,7 +68,7 @@ LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &k
     if (c.binding.action == Action::kMuteMotor) {
       const int k = keyboard_index(keyboard, c.binding.motor);
       if (k < 0) {
-        told.push_back(c.where + ": motor " + std::to_string(c.binding.motor) + " plays the song");
+        told.push_back(c.where + ": motor " + std::to_string(c.binding.motor) + kSongMotor);
         continue;
       }
       c.binding.motor = static_cast<uint8_t>(k);

@@ -365,7 +365,7 @@ void BoardLink::reader_loop() {
     if (last_pass && pass > last_pass + kReaderGapUs)
       stats_.heard_us.fetch_add(pass - last_pass, std::memory_order_relaxed);
     last_pass = pass;
-    stats_.read_us.store(pass, std::memory_order_relaxed);
+    stats_.read_us.store(pass, std::memory_order_release);  // after heard_us: repair_link reads it first
     long n = -1;
     try {
       n = link_.load(std::memory_order_acquire)->read(buf, sizeof buf, 50);

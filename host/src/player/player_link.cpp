@@ -79,13 +79,16 @@ void Player::send_clock_request(uint64_t now_us) {
 bool Player::read_replies(int timeout_ms) {
   uint8_t buf[512];
   long n = -1;
-  const uint64_t before = monotonic_us();
-  if (heard_us_ && last_read_us_ && before > last_read_us_ + kListenGapUs) heard_us_ += before - last_read_us_;
   try {
     n = board_->link().read(buf, sizeof buf, timeout_ms);
   } catch (const std::exception &) {
   }
   const uint64_t now = monotonic_us();
+  // Since the last read ended: this read's wait, and any time the player was held up (its loop,
+  // or the process stopped in or out of the read), which is not the board's silence.
+  const uint64_t waited = uint64_t(timeout_ms) * 1000;
+  if (heard_us_ && last_read_us_ && now > last_read_us_ + waited + kListenGapUs)
+    heard_us_ = std::min(now, heard_us_ + (now - last_read_us_ - waited));
   last_read_us_ = now;
   if (n < 0) {
     board_lost_ = true;
