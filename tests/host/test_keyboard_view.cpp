@@ -120,7 +120,7 @@ TEST_CASE("console: jam's keyboard learns a motor by the rig's number and saves 
   learned.action = Action::kMuteMotor;
   learned.motor = 1;
   config.controls.push_back(ControlSettings{rig_binding(learned, shown), "f.toml:1:1"});
-  const LiveConfig view = keyboard_view(config, {2, 3}, nullptr);
+  const LiveConfig view = keyboard_view(config, shown, nullptr);
   REQUIRE(view.controls.size() == 1);
   CHECK(view.controls[0].binding.motor == 1);
 }

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "cli/learn_prompt.h"
+#include "config/config.h"
 
 #define NCURSES_NOMACROS  // functions, not macros named erase, clear, move, timeout ...
 #include <curses.h>

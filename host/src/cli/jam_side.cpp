@@ -33,13 +33,11 @@ JamSide start_jam(const std::vector<BoardRun> &boards, const Rig &rig, Policy po
   apply_allocation(rig.config, &alloc);
   console_sources.music = alloc;
   // The keyboard's motors by their pool numbers (every board's motors, in board order), as jam
-  // prints them and the rig file's presets and controls name them.
-  std::vector<uint8_t> keyboard;
+  // prints them, its console shows them and the rig file's presets and controls name them.
   std::string ids_song, ids_live;
   for (size_t b = 0, first = 0; b < boards.size(); first += boards[b].caps.motor_count, ++b) {
     for (uint8_t m : boards[b].song_ids) ids_song += (ids_song.empty() ? "" : ",") + std::to_string(first + m);
     for (uint8_t m : boards[b].live_ids) {
-      keyboard.push_back(static_cast<uint8_t>(first + m));
       ids_live += (ids_live.empty() ? "" : ",") + std::to_string(first + m);
       console_sources.motor_numbers.push_back(first + m);
       console_sources.travel_steps.push_back(motor_travel(boards[b].settings, m));
@@ -47,7 +45,7 @@ JamSide start_jam(const std::vector<BoardRun> &boards, const Rig &rig, Policy po
     console_sources.board_names.push_back(boards[b].path);
   }
   std::vector<std::string> left_out;
-  const LiveConfig view = keyboard_view(rig.config, keyboard, &left_out);
+  const LiveConfig view = keyboard_view(rig.config, console_sources.motor_numbers, &left_out);
   for (const std::string &w : left_out) std::fprintf(stderr, "jam: warning: %s\n", w.c_str());
   std::vector<LivePreset> presets = live_presets(view, alloc);
   const std::vector<Binding> controls = live_controls(view, alloc.motor_count);

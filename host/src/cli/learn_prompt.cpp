@@ -40,12 +40,6 @@ std::optional<LearnRequest> parse_learn_request(const std::string &line, size_t 
   return r;
 }
 
-std::optional<uint8_t> keyboard_motor(const std::vector<size_t> &shown, size_t number) {
-  for (size_t i = 0; i < shown.size(); ++i)
-    if (shown[i] == number) return static_cast<uint8_t>(i);
-  return std::nullopt;
-}
-
 Binding rig_binding(Binding b, const std::vector<size_t> &shown) {
   if (b.action == Action::kMuteMotor && b.motor < shown.size()) b.motor = static_cast<uint8_t>(shown[b.motor]);
   return b;

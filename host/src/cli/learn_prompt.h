@@ -26,9 +26,8 @@ std::optional<LearnRequest> parse_learn_request(const std::string &line, size_t 
 
 // jam's keyboard plays some of the rig's motors: shown[i] is keyboard motor i's number as the
 // rig counts it (live's: 0, 1, 2, ...), the number the console shows and the rig file keeps. A
-// typed number -> its keyboard index (nullopt: not the keyboard's); a learned binding -> as the
-// rig file keeps it. Called from: the console.
-std::optional<uint8_t> keyboard_motor(const std::vector<size_t> &shown, size_t number);
+// learned binding -> as the rig file keeps it (a typed number -> keyboard index: keyboard_motor,
+// config.h). Called from: the console.
 Binding rig_binding(Binding b, const std::vector<size_t> &shown);
 
 // "CC 64 on channel 1" / "CC 1 on any channel": a binding's controller, for messages.

@@ -154,14 +154,18 @@ std::vector<LivePreset> live_presets(const LiveConfig &config, const AllocatorCo
 std::vector<Binding> live_controls(const LiveConfig &config, size_t motor_count);
 
 // The file's presets and controls for a keyboard that plays only some of the pool's motors (jam:
-// a song plays the others). keyboard: the keyboard's motors as pool indexes, in order; each pool
-// index the presets and controls name becomes its index among them. A motor the keyboard lacks
+// a song plays the others). keyboard: the keyboard's motors as pool indexes, in order (jam's
+// console shows them so); each pool index the presets and controls name becomes its index among
+// them (keyboard_motor). A motor the keyboard lacks
 // is left out of mute_motors, zones (a zone left with none goes; a preset whose zones all go
 // mutes every keyboard motor) and [[presets.motors]], and a control muting it goes; each is told
 // in left_out ("FILE:LINE:COLUMN: motor N plays the song: left out of ...").
 // Called from: `stepchoir jam`, before its session starts.
-LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &keyboard,
+LiveConfig keyboard_view(const LiveConfig &config, const std::vector<size_t> &keyboard,
                          std::vector<std::string> *left_out);
+// Pool motor `motor`'s index among the keyboard's motors (pool indexes, in order); nullopt when
+// the keyboard lacks it. Called from: keyboard_view, the console (a typed mute_motor).
+std::optional<uint8_t> keyboard_motor(const std::vector<size_t> &keyboard, size_t motor);
 
 // The [[controls]] table of a binding, as save_control writes it.
 std::string control_text(const Binding &b);

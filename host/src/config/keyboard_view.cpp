@@ -1,6 +1,6 @@
 // keyboard_view.cpp: the rig file's presets and controls for a keyboard that plays only some of
 // the pool's motors (see config.h).
-#include <algorithm>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,27 +12,32 @@ namespace {
 
 constexpr const char *kSongMotor = " plays the song: left out of the keyboard's presets and controls";
 
-// Pool index -> its index among the keyboard's motors, or -1.
-int keyboard_index(const std::vector<uint8_t> &keyboard, uint8_t motor) {
-  const auto it = std::find(keyboard.begin(), keyboard.end(), motor);
-  return it == keyboard.end() ? -1 : static_cast<int>(it - keyboard.begin());
+// m's index among the keyboard's motors; nullopt, told in left_out, for a motor the song plays.
+std::optional<uint8_t> renumber(uint8_t m, const std::vector<size_t> &keyboard, const std::string &where,
+                                std::vector<std::string> &left_out) {
+  const std::optional<uint8_t> k = keyboard_motor(keyboard, m);
+  if (!k) left_out.push_back(where + ": motor " + std::to_string(m) + kSongMotor);
+  return k;
 }
 
-// The motors of `motors` the keyboard has, as its indexes; each other one told in left_out.
-std::vector<uint8_t> keep(const std::vector<uint8_t> &motors, const std::vector<uint8_t> &keyboard,
+// The motors of `motors` the keyboard has, as its indexes.
+std::vector<uint8_t> keep(const std::vector<uint8_t> &motors, const std::vector<size_t> &keyboard,
                           const std::string &where, std::vector<std::string> &left_out) {
   std::vector<uint8_t> out;
-  for (uint8_t m : motors) {
-    const int k = keyboard_index(keyboard, m);
-    if (k >= 0) out.push_back(static_cast<uint8_t>(k));
-    else left_out.push_back(where + ": motor " + std::to_string(m) + kSongMotor);
-  }
+  for (uint8_t m : motors)
+    if (const auto k = renumber(m, keyboard, where, left_out)) out.push_back(*k);
   return out;
 }
 
 }  // namespace
 
-LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &keyboard,
+std::optional<uint8_t> keyboard_motor(const std::vector<size_t> &keyboard, size_t motor) {
+  for (size_t i = 0; i < keyboard.size(); ++i)
+    if (keyboard[i] == motor) return static_cast<uint8_t>(i);
+  return std::nullopt;
+}
+
+LiveConfig keyboard_view(const LiveConfig &config, const std::vector<size_t> &keyboard,
                          std::vector<std::string> *left_out) {
   std::vector<std::string> told;
   LiveConfig view = config;
@@ -53,12 +58,9 @@ LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &k
     p.zones = zones;
     std::vector<PresetMotorSettings> motors;
     for (PresetMotorSettings m : p.motors) {
-      const int k = keyboard_index(keyboard, m.motor);
-      if (k < 0) {
-        told.push_back(m.where + ": motor " + std::to_string(m.motor) + kSongMotor);
-        continue;
-      }
-      m.motor = static_cast<uint8_t>(k);
+      const auto k = renumber(m.motor, keyboard, m.where, told);
+      if (!k) continue;
+      m.motor = *k;
       motors.push_back(m);
     }
     p.motors = motors;
@@ -66,12 +68,9 @@ LiveConfig keyboard_view(const LiveConfig &config, const std::vector<uint8_t> &k
   std::vector<ControlSettings> controls;
   for (ControlSettings c : view.controls) {
     if (c.binding.action == Action::kMuteMotor) {
-      const int k = keyboard_index(keyboard, c.binding.motor);
-      if (k < 0) {
-        told.push_back(c.where + ": motor " + std::to_string(c.binding.motor) + kSongMotor);
-        continue;
-      }
-      c.binding.motor = static_cast<uint8_t>(k);
+      const auto k = renumber(c.binding.motor, keyboard, c.where, told);
+      if (!k) continue;
+      c.binding.motor = *k;
     }
     controls.push_back(c);
   }
