@@ -51,9 +51,24 @@ class FakeLink : public Link {
     open_ = open;
     opened_.notify_all();
   }
-  long read(uint8_t *, size_t, int timeout_ms) override {
+  // The bytes the board says (board_says), else nothing within the timeout.
+  long read(uint8_t *data, size_t len, int timeout_ms) override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!said_.empty()) {
+        const size_t n = std::min(len, said_.size());
+        std::copy(said_.begin(), said_.begin() + static_cast<long>(n), data);
+        said_.erase(said_.begin(), said_.begin() + static_cast<long>(n));
+        return static_cast<long>(n);
+      }
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(std::min(timeout_ms, 5)));
     return 0;
+  }
+  // Called from: the test. Bytes for the next reads, as if the board sent them.
+  void board_says(const std::vector<uint8_t> &bytes) {
+    std::lock_guard<std::mutex> lock(mu_);
+    said_.insert(said_.end(), bytes.begin(), bytes.end());
   }
   std::string name() const override { return "fake"; }
   // Writes from threads other than the one that made the link (the session's engine and
@@ -78,6 +93,7 @@ class FakeLink : public Link {
   std::condition_variable opened_;
   std::mutex mu_;
   std::vector<uint8_t> bytes_;
+  std::vector<uint8_t> said_;
   const std::thread::id maker_ = std::this_thread::get_id();
   int rt_writes_ = 0, other_writes_ = 0;
   void count_scope(bool rt) {  // mu_ held

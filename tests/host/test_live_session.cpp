@@ -1,7 +1,7 @@
 // test_live_session.cpp: a LiveSession writing to a fake link: notes become set-period frames,
 // stop silences all, a slow or restarted link still ends up with what should sound, heartbeats,
 // periodic refreshes and vibrato between events, the link budget, jam's song frames beside live
-// notes, and the threads' writes inside real-time scopes.
+// notes, a restart told from a hello's answer, and the threads' writes inside real-time scopes.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -127,6 +127,42 @@ TEST_CASE("live: jam - song frames from another thread go out whole and in order
   // were folded into the silence: counted as coalesced).
   CHECK(live + s.board_stats(0).coalesced.load() >= 20);
   CHECK(live >= 10);
+}
+
+TEST_CASE("live: capabilities that answer a song player's hello are no restart; unasked ones are", "[live]") {
+  FakeLink link;
+  const LiveBoard board{&link, 2, kF, {2, 3}};  // the keyboard plays motors 2 and 3
+  LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
+  s.forward_replies(0);
+  s.start();
+  const BoardStats &st = s.board_stats(0);
+  std::vector<uint8_t> caps_payload(1 + sizeof(sc::CapsBody), 0);
+  caps_payload[0] = sc::kMsgCaps;
+  const std::vector<uint8_t> caps = frame(caps_payload), hello = frame({sc::kMsgHello});
+  uint8_t buf[64];
+  // The board says its capabilities; true once the song player read them and the reader
+  // decoded them (it heard a frame), and a moment later (the reader's flag follows).
+  const auto board_says_caps = [&] {
+    const uint64_t heard = st.heard_us.load();
+    link.board_says(caps);
+    const bool read = eventually([&] { return s.read_board_bytes(0, buf, sizeof buf, 10) == static_cast<long>(caps.size()); });
+    const bool decoded = eventually([&] { return st.heard_us.load() != heard; });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return read && decoded;
+  };
+  // The song player's hello, then the board's answer.
+  REQUIRE(s.send_song_frame(0, hello.data(), hello.size()));
+  REQUIRE(eventually([&] {
+    for (const auto &f : link.frames())
+      if (f.size() == 1 && f[0] == sc::kMsgHello) return true;
+    return false;
+  }));
+  REQUIRE(board_says_caps());
+  CHECK_FALSE(st.restarted.load());
+  // The same, unasked: the board started again.
+  REQUIRE(board_says_caps());
+  CHECK(st.restarted.load());
+  s.stop();
 }
 
 TEST_CASE("live: a slow link gets the latest states, every silence, and ends silent", "[live]") {

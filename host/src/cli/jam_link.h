@@ -5,11 +5,15 @@
 #define STEPCHOIR_HOST_CLI_JAM_LINK_H
 
 #include <chrono>
+#include <functional>
+#include <memory>
 #include <string>
 #include <thread>
 #include <utility>
 
+#include "board/board.h"
 #include "board/link.h"
+#include "config/rig.h"
 #include "live/session.h"
 
 namespace stepchoir {
@@ -39,6 +43,23 @@ class JamLink : public Link {
   size_t board_;
   std::string name_;
 };
+
+// The song player's on_reopen (PlayerOptions) for board b of a session whose link keeper
+// (cli/link_repair.h) also sets up a board that restarted: configures the rig file's motors
+// unless the keeper attached a link since the last call (it configured them). Called from: the
+// song player's thread, once the board answered again.
+inline std::function<void(Board &, const Caps &)> configure_unless_kept(const LiveSession &session, size_t b,
+                                                                       const BoardSettings &settings, std::string path) {
+  return [&session, b, &settings, path = std::move(path),
+          seen = std::make_shared<uint32_t>(session.board_stats(b).reconnects.load())](Board &board, const Caps &caps) {
+    const uint32_t attached = session.board_stats(b).reconnects.load();
+    if (attached != *seen) {
+      *seen = attached;
+      return;
+    }
+    configure_motors(board, caps, settings, path);
+  };
+}
 
 }  // namespace stepchoir
 

@@ -304,24 +304,15 @@ int PlayCommand::run(std::atomic<bool> &stop) const {
       const std::string path = boards[b].path;
       // A board back after a loss or a reset has its power-up defaults: the rig file's motors
       // are configured again before the song goes on (a TB6600's pulse, travel, soft limits).
-      // Jam: the live path reopens the port and configures the board (the link keeper, below:
-      // a new link attached); the song finds it again through the session once it is there. A
-      // board that restarted with its link up (its reset button) only the song's player sees: it
-      // configures it.
+      // Jam: the live path reopens the port, or hears a board that restarted with its link up
+      // (its unasked capabilities), and configures the board (the link keeper, below: a new
+      // link attached); the song finds it again through the session once it is there. The
+      // song's player configures a restarted board the keeper did not.
       const BoardSettings *settings = boards[b].settings;
       if (settings && !jamming)
         po.on_reopen = [settings, path](Board &board, const Caps &caps) { configure_motors(board, caps, *settings, path); };
       else if (settings)
-        po.on_reopen = [settings, path, s = session.get(), b,
-                        seen = std::make_shared<uint32_t>(session->board_stats(b).reconnects.load())](
-                           Board &board, const Caps &caps) {
-          const uint32_t attached = s->board_stats(b).reconnects.load();
-          if (attached != *seen) {
-            *seen = attached;  // the keeper's new link: configured already
-            return;
-          }
-          configure_motors(board, caps, *settings, path);
-        };
+        po.on_reopen = configure_unless_kept(*session, b, *settings, path);
       if (!jamming) {
         opener = [path] { return open_link(path); };
       } else {

@@ -164,11 +164,10 @@ void SetlistRunner::enter(size_t index, LiveSession &session) {
       po.crystal_sigma_ppm = boards_[b].known->sigma_ppm;
     }
     po.a4_hz = a4_hz_;
-    // A board that restarted mid-song (its reset button) is configured again from the rig file.
+    // A board that restarted mid-song (its reset button) is configured again from the rig file,
+    // by live's link keeper or else by the song's player.
     if (const BoardSettings *settings = boards_[b].settings)
-      po.on_reopen = [settings, path = boards_[b].path](Board &board, const Caps &caps) {
-        configure_motors(board, caps, *settings, path);
-      };
+      po.on_reopen = configure_unless_kept(session, b, *settings, boards_[b].path);
     if (playing > 1) po.start_gate = [gate = gate_.get(), b](uint64_t now_us) { return gate->ready(b, now_us); };
     auto board = std::make_unique<Board>(std::make_unique<JamLink>(session, b, boards_[b].path));
     players_.push_back(std::make_unique<Player>(std::move(board), boards_[b].caps, sp.events[b], sp.duration_s, po));

@@ -55,6 +55,20 @@ void record_latency(LatencyHistogram &latency, BoardStats &stats, const uint64_t
   }
 }
 
+// A hello's wire form: a one-byte payload, so it is fixed. Built at load time.
+const WireFrame kHelloWire = [] {
+  WireFrame f;
+  const uint8_t hello = sc::kMsgHello;
+  f.len = sc::encode_frame(&hello, 1, f.bytes);
+  return f;
+}();
+
+// Called from: the writer thread, for each song frame it sent (its budget: a compare of at
+// most 5 bytes). Whether it is a song player's hello, which the board's capabilities answer.
+bool is_hello(const WireFrame &f) noexcept {
+  return f.len == kHelloWire.len && std::equal(f.bytes, f.bytes + f.len, kHelloWire.bytes);
+}
+
 }  // namespace
 
 BoardLink::BoardLink(const LiveBoard &board, LatencyHistogram &latency, std::atomic<int> &realtime, int refresh_ms)
@@ -289,6 +303,7 @@ void BoardLink::writer_loop() {
     for (WireFrame *f = song_.peek();
          f && !coalescer_.pending() && budget_.credit_bytes() >= LinkBudget::kBurstBytes / 2 + f->len; f = song_.peek()) {
       if (!send_wire(link, f->bytes, f->len, false)) break;
+      if (is_hello(*f)) hello_sent_us_.store(monotonic_us(), std::memory_order_release);
       song_written_us_.store(monotonic_us(), std::memory_order_relaxed);
       song_written_.fetch_add(1, std::memory_order_release);
       song_.pop();
@@ -390,8 +405,9 @@ void BoardLink::reader_loop() {
       if (p[0] == sc::kMsgError && len >= 4) {
         stats_.board_errors.fetch_add(1, std::memory_order_relaxed);
         stats_.last_error.store(p[1], std::memory_order_relaxed);
-      } else if (p[0] == sc::kMsgCaps && (!forward_ || song_motors_.load(std::memory_order_acquire) == 0)) {
-        stats_.restarted.store(true, std::memory_order_relaxed);
+      } else if (p[0] == sc::kMsgCaps) {
+        const uint64_t asked = hello_sent_us_.exchange(0, std::memory_order_acq_rel);
+        if (!asked || monotonic_us() > asked + kHelloAnswerUs) stats_.restarted.store(true, std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgStatus) {
         try {
           const Status s = parse_status(p, len);

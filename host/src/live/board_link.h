@@ -52,6 +52,9 @@ static_assert(Board::kSilentMs >= 3 * kStatusEveryMs, "a silent board has missed
 // The reader passes at least every 50 ms (its read's timeout); a longer gap is its thread held
 // up, not the board's silence (BoardStats::heard_us).
 constexpr uint64_t kReaderGapUs = 200000;
+// Capabilities within this long after a song player's hello answer it; later ones come
+// unasked (BoardStats::restarted). A hello is answered within milliseconds.
+constexpr uint64_t kHelloAnswerUs = 1000000;
 // Every motor's state is sent again this often, so that a frame the board lost (line noise,
 // an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
 // period keeps its phase; silence to a silent motor does nothing.
@@ -64,9 +67,9 @@ struct BoardStats {
   std::atomic<uint64_t> direct_frames{0};  // set-period frames the engine wrote itself
   std::atomic<bool> write_failed{false}, read_failed{false};
   // The board sent its capabilities unasked: it started again with the link up (its reset
-  // button, a brown-out) and runs on its defaults, silent. Set by the reader while no song plays
-  // on the board (a song's player asks for them, and sees a restart by the board's clock);
-  // cleared when a link is attached.
+  // button, a brown-out) and runs on its defaults, silent. Set by the reader for capabilities
+  // that come more than kHelloAnswerUs after the writer sent a song player's hello (those
+  // answer it); cleared when a link is attached.
   std::atomic<bool> restarted{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
@@ -207,6 +210,9 @@ class BoardLink {
   size_t partial_pos_ = 0;
   bool forward_ = false;
   std::atomic<uint8_t> song_motors_{0};
+  // When the writer handed a song player's hello to the OS (monotonic_us; 0: none since the
+  // last capabilities). Written by the writer, read and cleared by the reader.
+  std::atomic<uint64_t> hello_sent_us_{0};
   uint64_t song_queued_ = 0;                 // song frames queued (the song player's thread)
   std::atomic<uint64_t> song_written_{0};    // song frames the writer handed to the OS
   std::atomic<uint64_t> song_written_us_{0}; // when it handed over the last one
