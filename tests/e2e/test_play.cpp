@@ -208,67 +208,6 @@ TEST_CASE("play: a Mega reset with its link up (its button) mid-song, held in it
   check_tb6600_pulses(t, 1, 2, t.mcu_resets[2]);
 }
 
-TEST_CASE("jam: the board reset with its link up (its button) mid-song - the song's player sets it up again from "
-          "the rig file and plays on, and the held key sounds again",
-          "[play][jam][safety][pacing]") {
-  JackServer jack(1024);
-  Sender keys;  // the keyboard, silent
-  const std::string song = write_test_song("jam-button.mid");
-  const std::string trace_path = scratch("jam-button.csv"), rig = scratch("jam-button.toml");
-  // A board met before (a second of sync), reset by the open as an Uno is; motor 0 a TB6600.
-  const e2e::KnownBoard known("jam-button", 0x0807060504030211, 0.0);
-  VboardProcess vb({"--board", "uno", "--auto-reset", "--eeprom", known.eeprom, "--trace", trace_path, "--quiet"});
-  std::ofstream(rig) << "[midi]\ninput = \"" << Sender::kPort << "\"\napi = \"jack\"\n[[boards]]\nport = \""
-                     << vb.pty() << "\"\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
-  ChildProcess jam({STEPCHOIR_BIN, "jam", song, "--tracks", "1,2", "--tempo", "0.5", "--config", rig, "--song-motors",
-                    "0,1", "--quiet"},
-                   true);
-  std::string said;
-  REQUIRE(wait_for_line(jam, "jam: the song on motors 0,1", &said) != "");
-  // A key held on the keyboard's motors across the reset; a second of sync and the lead, then
-  // under a second into the song: the button.
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  keys.send(stepchoir::note_on(0, 60, 100));
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(4000));
-  keys.send(stepchoir::note_off(0, 60));
-  const std::string out = said + jam.read_rest(60000);
-  REQUIRE(jam.wait() == 0);
-  REQUIRE(vb.stop() == 0);
-  INFO(out);
-  CHECK(out.find("reconnects 1") != std::string::npos);
-  const auto t = sc::trace::read_trace(trace_path);
-  REQUIRE(t.mcu_resets.size() == 2);  // jam's open, then the button
-  // The song goes on in its own time once the board is back (its bootloader, a hello, its
-  // motors configured, a second of sync): the notes of the song's last 3.5 s, on time against
-  // each other and in tune.
-  const Plan plan = plan_for(song, 2, 0.5, {1, 2});
-  check_song("jam, after the board's reset", t, plan, plan.duration_s - 3.5);
-  // Motor 0's pulses after the reset: the TB6600's 5 us again, the rig file's setting sent anew
-  // (motor 1 keeps the default).
-  check_tb6600_pulses(t, 0, 1, t.mcu_resets[1]);
-  // The held key, loud (velocity 100: in unison on both free keyboard motors): before the
-  // button, and again once the board is set up again (its bootloader, a hello, the rig file's
-  // motors), until its release.
-  const double reset_s = double(t.mcu_resets[1]) / t.f_cpu_hz;
-  size_t found = 0;
-  for (size_t m = 2; m < 4; ++m) {
-    const auto notes = sc::trace::segment_notes(t.motor[m].steps, t.f_cpu_hz);
-    if (notes.empty()) continue;
-    ++found;
-    REQUIRE(notes.size() == 2);
-    CHECK(double(notes[0].end_cycle) / t.f_cpu_hz < reset_s);
-    const double back_s = double(notes[1].start_cycle) / t.f_cpu_hz - reset_s;
-    INFO("the held key sounded again " << back_s << " s after the button");
-    CHECK(back_s > 1.375);  // the bootloader
-    CHECK(back_s < 2.5);
-    for (const auto &n : notes) CHECK(std::fabs(n.midi_note - 60) < live_checks::kPitchToleranceSemitones);
-    CHECK(double(notes[1].end_cycle - notes[1].start_cycle) / t.f_cpu_hz > 1.0);
-  }
-  CHECK(found == 2);
-}
-
 TEST_CASE("jam: a song on two motors and a JACK keyboard on the other two, both right", "[play][jam][pacing]") {
   JackServer jack(1024);
   Sender keys;

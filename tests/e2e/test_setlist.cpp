@@ -3,9 +3,12 @@
 // mutes them for the keyboard) while keys play on motors 2 and 3; a learned pedal (CC 20) steps
 // to item 2, a plain preset; again to item 3, the song on motors 2 and 3, and CC 21 steps back
 // from it mid-song. Read from the trace: the song on time and in tune, the keys on the other
-// motors, and nothing of the stopped song after the step back. The songs measure the board's
-// crystal, and the host remembers it.
+// motors, and nothing of the stopped song after the step back. The board resets (its button)
+// before the encore, which finds it set up again from the rig file. The songs measure the
+// board's crystal, and the host remembers it.
 #include <catch2/catch.hpp>
+
+#include <signal.h>
 
 #include <chrono>
 #include <cmath>
@@ -53,7 +56,8 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
                              << "[[controls]]\naction = \"setlist_previous\"\ncc = 21\n\n"
                              << "[setlist]\nitems = [\n  { song = \"" << song << "\", preset = \"duet\" },\n"
                              << "  { preset = \"plain\" },\n  { song = \"" << song << "\", song_motors = [2, 3], name = \"encore\" },\n]\n\n"
-                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n";
+                             << "[[boards]]\nport = \"" << vb.pty() << "\"\n"
+                             << "[[boards.motors]]\n[[boards.motors]]\n[[boards.motors]]\ndriver = \"tb6600\"\npulse_us = 5\n";
   auto press = [&](uint8_t cc) {
     const double at = keys.send(stepchoir::control_change(0, cc, 127));
     wait_ms(50);
@@ -75,6 +79,11 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
   wait_ms(200);
   keys.play({{0.0, 0.4, 60}});  // plain: motor 0
   wait_ms(200);
+  // Between the songs the board resets with its link up (its button): live sets it up again
+  // from the rig file before the encore.
+  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
+  REQUIRE(wait_for_line(live, "live: " + vb.pty() + ": the board restarted; setting it up again", &said) != "");
+  REQUIRE(wait_for_line(live, "live: " + vb.pty() + ": set up again", &said) != "");
   press(20);
   REQUIRE(wait_for_line(live, "live: setlist 3/3", &said) == "live: setlist 3/3 encore: the song on motors 2,3");
   const double encore_s = Sender::now_s();
@@ -117,6 +126,10 @@ TEST_CASE("live: a setlist plays a song jam style, steps on a pedal, and stops a
   std::printf("setlist: the encore's last step %.1f ms after the step back\n", (last_s - back_s) * 1e3);
   CHECK(encore_steps > 0);
   CHECK(last_s - back_s < 0.5);
+  // The encore after the reset: motor 2 with the rig file's TB6600 pulses again (motor 3 keeps
+  // the default).
+  REQUIRE(t.mcu_resets.size() == 1);  // the button (this board is not reset by an open)
+  check_tb6600_pulses(t, 2, 3, t.mcu_resets[0]);
   // The songs' measure of the crystal, remembered for the next evening.
   const std::optional<stepchoir::BoardRecord> record =
       stepchoir::recall_board(id, e2e::scratch("setlist-cache") + "/stepchoir/boards.toml");
