@@ -1,7 +1,8 @@
 // test_motion.cpp: moves on the real firmware, end to end: `stepchoir home` brings carriages
 // that start at either end or off centre to the middle of the rail on both boards, a switch
 // that never fires stops the motor with a clear error, and `jog` follows the seed's Torricelli
-// ramp, checked step by step from the trace in board cycles.
+// ramp, checked step by step from the trace in board cycles. With home_on_start, play and jam
+// home the switched carriages before the song.
 //
 // The boards run paced, the homing ones at twice real time: the host heartbeats every 50 ms
 // (and its loop's time) while a motor moves, 100 ms of board time, within the watchdog's
@@ -13,10 +14,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "jack_rig.h"
 #include "play_checks.h"
 #include "trace.h"
 #include "vboard_process.h"
@@ -190,13 +193,24 @@ TEST_CASE("jog by millimetres and turns, then center: the board counts the carri
   CHECK(final_position(t, 2, kTravel / 2) == kTravel / 2);
 }
 
-TEST_CASE("home_on_start: play homes the switched carriages, then plays the song", "[play][pacing]") {
-  const std::string trace_path = scratch("home-play.csv");
+TEST_CASE("home_on_start: play and jam home the switched carriages, then play the song", "[play][pacing]") {
+  const std::string command = GENERATE(as<std::string>{}, "play", "jam");
+  INFO(command);
+  const std::string trace_path = scratch("home-" + command + ".csv");
   VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--start-position", "0"});
-  const std::string top = motion_config("home-play", vb.pty(), "home_speed = 40.0\n", "home_on_start = true\n");
-  const std::string song = write_test_song("home-play.mid");
+  const std::string top = motion_config("home-" + command, vb.pty(), "home_speed = 60.0\n", "home_on_start = true\n");
+  const std::string song = write_test_song("home-" + command + ".mid");
+  std::vector<std::string> args{command, song, "--port", vb.pty(), "--config", top, "--quiet"};
+  // Jam: the song on motors 0 and 1, a JACK keyboard (silent) on the others.
+  std::unique_ptr<JackServer> jack;
+  std::unique_ptr<Sender> keys;
+  if (command == "jam") {
+    jack = std::make_unique<JackServer>(1024);
+    keys = std::make_unique<Sender>();
+    args.insert(args.end(), {"--midi-api", "jack", "--midi", Sender::kPort, "--song-motors", "0,1"});
+  }
   int status = -1;
-  const std::string out = run_stepchoir({"play", song, "--port", vb.pty(), "--config", top, "--quiet"}, &status);
+  const std::string out = run_stepchoir(args, &status);
   INFO(out);
   REQUIRE(status == 0);
   REQUIRE(vb.stop() == 0);
