@@ -45,7 +45,7 @@ struct ResetCase {
 }  // namespace
 
 TEST_CASE("jam: the board reset with its link up (its button) mid-song - the song's player sets it up again from "
-          "the rig file and plays on, and the held key sounds again; an Uno at once, a Mega once jam goes quiet",
+          "the rig file and plays on, and the held key sounds again - an Uno at once, a Mega once jam goes quiet",
           "[play][jam][safety][pacing]") {
   // Uno: its 1.375 s bootloader. Mega: jam hears nothing for 3.5 s and goes quiet, then the
   // bootloader's 5 s of silence and the set-up.

@@ -129,7 +129,7 @@ TEST_CASE("live: jam - song frames from another thread go out whole and in order
   CHECK(live >= 10);
 }
 
-TEST_CASE("live: capabilities that answer a song player's hello are no restart; unasked ones are", "[live]") {
+TEST_CASE("live: capabilities that answer a song player's hello are no restart, unasked ones are", "[live]") {
   FakeLink link;
   const LiveBoard board{&link, 2, kF, {2, 3}};  // the keyboard plays motors 2 and 3
   LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
