@@ -25,16 +25,16 @@
 // its children find it through JACK_DEFAULT_SERVER.
 class JackServer {
  public:
-  // period_frames: the dummy driver's period at 48 kHz (1024: 21 ms; MIDI moves once a period).
-  // realtime: SCHED_FIFO for the server and its clients' process threads (the benchmark; the
-  // tests run without, as a user without realtime privileges would).
-  explicit JackServer(int period_frames, bool realtime = false)
+  // period_frames: the dummy driver's period in frames at rate_hz (1024 at 48 kHz: 21 ms; MIDI
+  // moves once a period). realtime: SCHED_FIFO for the server and its clients' process threads
+  // (the benchmark; the tests run without, as a user without realtime privileges would).
+  explicit JackServer(int period_frames, bool realtime = false, int rate_hz = 48000)
       : name_("stepchoir-e2e-" + std::to_string(getpid())) {
     setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
     setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
     jackd_ = std::make_unique<stepchoir::ChildProcess>(
-        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, realtime ? "-R" : "-r", "-d", "dummy", "-p",
-                                 std::to_string(period_frames)},
+        std::vector<std::string>{"/usr/bin/jackd", "-n", name_, realtime ? "-R" : "-r", "-d", "dummy", "-r",
+                                 std::to_string(rate_hz), "-p", std::to_string(period_frames)},
         false);
     stepchoir::ChildProcess wait({"/usr/bin/jack_wait", "-s", name_, "-w", "-t", "30"}, true);
     if (wait.wait() != 0) throw std::runtime_error("jackd -n " + name_ + " did not come up");

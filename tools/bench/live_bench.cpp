@@ -55,7 +55,7 @@ constexpr double kPartsSumToleranceUs = 5;
 // Plays N note-on/off events at a fixed rate through JACK into `stepchoir`'s live session
 // and writes bench/results/live-latency.md.
 int main(int argc, char **argv) {
-  int events = 10000, jack_period = 32;
+  int events = 10000, jack_period = 32, jack_rate = 48000;
   bool jack_realtime = false;
   double rate_hz = 1000;
   std::string out_dir = "bench/results", board_name = "uno", name = "live-latency";
@@ -64,8 +64,10 @@ int main(int argc, char **argv) {
   app.add_option("--rate", rate_hz, "events per second (default 1000)")->check(CLI::Range(1.0, 20000.0));
   app.add_option("--out", out_dir, "directory for the results (default bench/results)");
   app.add_option("--name", name, "results file name without .md (default live-latency)");
-  app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames at 48 kHz (default 32)")
+  app.add_option("--jack-period", jack_period, "JACK dummy driver period, frames (default 32)")
       ->check(CLI::Range(8, 4096));
+  app.add_option("--jack-rate", jack_rate, "JACK dummy driver sample rate, Hz (default 48000)")
+      ->check(CLI::IsMember({44100, 48000, 88200, 96000, 192000}));
   app.add_flag("--jack-realtime", jack_realtime, "run jackd with realtime scheduling (-R)");
   app.add_option("--board", board_name, "virtual board: " + stepchoir::one_of(stepchoir::kBoardKinds))
       ->check(CLI::IsMember(stepchoir::kBoardKinds));
@@ -79,7 +81,7 @@ int main(int argc, char **argv) {
   std::string command;
   for (int i = 0; i < argc; ++i) command += (i ? " " : "") + std::string(argv[i]);
 
-  JackServer jack(jack_period, jack_realtime);
+  JackServer jack(jack_period, jack_realtime, jack_rate);
   Sender keys;
   const std::string trace_file = "/tmp/stepchoir-bench-live-" + std::to_string(::getpid()) + ".csv";
   VboardProcess vb({"--board", board_name, "--quiet", "--no-measure", "--link-model", link_model, "--trace", trace_file,
@@ -158,8 +160,8 @@ int main(int argc, char **argv) {
   out << "# Live path: " << events << " events at " << rate_hz << " per second\n\n"
       << "Command: `" << command << "`\n\n"
       << "Date: " << date << "\n\n"
-      << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -p " << jack_period
-      << "`; its period as the server reports it: " << period_us << " us), a sender on a virtual JACK MIDI "
+      << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -r " << jack_rate
+      << " -p " << jack_period << "`; its period as the server reports it: " << period_us << " us), a sender on a virtual JACK MIDI "
          "output, `stepchoir`'s MidiIn (RtMidi, JACK API) on it, a LiveSession (engine and writer threads) and the real "
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
@@ -197,7 +199,7 @@ int main(int argc, char **argv) {
       << "| peak memory of this process (resident) | " << peak_rss_mib() << " MiB |\n\n"
       << "Key -> first STEP edge: " << onsets << " single notes 45-55 ms apart after the flood, from the sender's "
          "clock just before it hands the note to JACK to the board's first STEP edge, the trace laid on the same "
-         "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames, "
+         "monotonic clock (its wall_start line). Its parts: JACK's period (" << jack_period << " frames at " << jack_rate << " Hz, "
       << period_us << " us at most), the host (callback -> frame handed to the OS, above), the link (ideal: "
          "the virtual board's lead on the wall clock only; 16u2: the next 1 ms USB frame), the wire (above) and the firmware (frame's last byte -> first STEP "
          "edge, measured in bench/results/onset-latency.md), each measured per note in the table below. A note-on on a DIN MIDI cable takes 960 us (3 bytes at "
