@@ -25,7 +25,9 @@ cmake --build build -j"$(nproc)"
 [ "${STEPCHOIR_QUICK:-0}" = 1 ] && exit 0
 
 # Sanitizers: every native unit and tool test again, built with -fsanitize=address,undefined.
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTEPCHOIR_SANITIZE=address,undefined
+# Each unit test program runs once, all its cases (STEPCHOIR_TESTS_PER_PROGRAM).
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTEPCHOIR_SANITIZE=address,undefined \
+  -DSTEPCHOIR_TESTS_PER_PROGRAM=ON
 cmake --build build-asan -j"$(nproc)"
 (
   cd build-asan
@@ -40,5 +42,5 @@ cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Debug -DSTEPCHOIR_FIRMWARE=OFF -DSTE
 cmake --build build-tsan -j"$(nproc)" --target test_live
 TSAN_OPTIONS="halt_on_error=1 suppressions=$PWD/tests/sanitizers/tsan.supp" build-tsan/bin/test_live
 
-# Fuzzing, bounded: each target 15 s; any crash, leak, hang or sanitizer report fails.
-tools/fuzz.sh 15
+# Fuzzing, bounded: each target 10 s; any crash, leak, hang or sanitizer report fails.
+tools/fuzz.sh 10
