@@ -200,7 +200,8 @@ TEST_CASE("home_on_start: play and jam home the switched carriages, then play th
   VboardProcess vb({"--board", "mega", "--trace", trace_path, "--quiet", "--no-measure", "--start-position", "0"});
   const std::string top = motion_config("home-" + command, vb.pty(), "home_speed = 60.0\n", "home_on_start = true\n");
   const std::string song = write_test_song("home-" + command + ".mid");
-  std::vector<std::string> args{command, song, "--port", vb.pty(), "--config", top, "--quiet"};
+  // The song at twice its tempo: what matters here is that it comes after the homing.
+  std::vector<std::string> args{command, song, "--tempo", "2", "--port", vb.pty(), "--config", top, "--quiet"};
   // Jam: the song on motors 0 and 1, a JACK keyboard (silent) on the others.
   std::unique_ptr<JackServer> jack;
   std::unique_ptr<Sender> keys;
