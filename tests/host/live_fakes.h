@@ -20,7 +20,8 @@
 
 namespace stepchoir::live_test {
 
-// A Link that keeps every byte written; reads time out with nothing. While closed, writes
+// A Link that keeps every byte written; reads return what the test had the board say
+// (board_says), else time out with nothing. While closed, writes
 // wait: a link slower than anything the test sends. With `direct`, try_write takes a frame at
 // once while open and refuses it while closed (like a port whose OS buffer is full); without,
 // it always refuses (a link that cannot tell).

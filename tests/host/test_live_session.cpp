@@ -129,7 +129,7 @@ TEST_CASE("live: jam - song frames from another thread go out whole and in order
   CHECK(live >= 10);
 }
 
-TEST_CASE("live: capabilities that answer a song player's hello are no restart, unasked ones are", "[live]") {
+TEST_CASE("live: capabilities that answer a song player's hello are no restart, unasked or late ones are", "[live]") {
   FakeLink link;
   const LiveBoard board{&link, 2, kF, {2, 3}};  // the keyboard plays motors 2 and 3
   LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
@@ -140,6 +140,17 @@ TEST_CASE("live: capabilities that answer a song player's hello are no restart, 
   caps_payload[0] = sc::kMsgCaps;
   const std::vector<uint8_t> caps = frame(caps_payload), hello = frame({sc::kMsgHello});
   uint8_t buf[64];
+  size_t hellos = 0;
+  // The song player says hello n times; true once the writer sent them all.
+  const auto say_hello = [&](size_t n) {
+    for (size_t i = 0; i < n; ++i) REQUIRE(s.send_song_frame(0, hello.data(), hello.size()));
+    hellos += n;
+    return eventually([&] {
+      size_t sent = 0;
+      for (const auto &f : link.frames()) sent += f.size() == 1 && f[0] == sc::kMsgHello;
+      return sent == hellos;
+    });
+  };
   // The board says its capabilities; true once the song player read them and the reader
   // decoded them (it heard a frame), and a moment later (the reader's flag follows).
   const auto board_says_caps = [&] {
@@ -150,18 +161,22 @@ TEST_CASE("live: capabilities that answer a song player's hello are no restart, 
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     return read && decoded;
   };
-  // The song player's hello, then the board's answer.
-  REQUIRE(s.send_song_frame(0, hello.data(), hello.size()));
-  REQUIRE(eventually([&] {
-    for (const auto &f : link.frames())
-      if (f.size() == 1 && f[0] == sc::kMsgHello) return true;
-    return false;
-  }));
+  // Two hellos, each answered: no restart.
+  REQUIRE(say_hello(2));
+  REQUIRE(board_says_caps());
   REQUIRE(board_says_caps());
   CHECK_FALSE(st.restarted.load());
-  // The same, unasked: the board started again.
+  // Once more, unasked: the board started again.
   REQUIRE(board_says_caps());
-  CHECK(st.restarted.load());
+  CHECK(eventually([&] { return st.restarted.load(); }));
+  // A link attached anew clears the flag; capabilities long after a hello answer none of it.
+  REQUIRE(s.detach_link(0));
+  s.attach_link(0, &link);
+  CHECK_FALSE(st.restarted.load());
+  REQUIRE(say_hello(1));
+  std::this_thread::sleep_for(std::chrono::microseconds(kHelloAnswerUs + 50000));
+  REQUIRE(board_says_caps());
+  CHECK(eventually([&] { return st.restarted.load(); }));
   s.stop();
 }
 

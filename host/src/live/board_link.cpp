@@ -155,6 +155,8 @@ void BoardLink::attach(Link *link) {
   stats_.write_failed.store(false);
   stats_.read_failed.store(false);
   stats_.restarted.store(false);
+  hellos_out_.store(0);  // a hello sent before the detach was answered meanwhile, or never
+  hello_sent_us_.store(0);
   stats_.last_status_us.store(0);
   stats_.heard_us.store(monotonic_us());
   stats_.reconnects.fetch_add(1);
@@ -302,8 +304,11 @@ void BoardLink::writer_loop() {
     budget_.refill(monotonic_us());
     for (WireFrame *f = song_.peek();
          f && !coalescer_.pending() && budget_.credit_bytes() >= LinkBudget::kBurstBytes / 2 + f->len; f = song_.peek()) {
+      if (is_hello(*f)) {  // counted before the write: its answer may come at once
+        hello_sent_us_.store(monotonic_us(), std::memory_order_relaxed);
+        hellos_out_.fetch_add(1, std::memory_order_release);
+      }
       if (!send_wire(link, f->bytes, f->len, false)) break;
-      if (is_hello(*f)) hello_sent_us_.store(monotonic_us(), std::memory_order_release);
       song_written_us_.store(monotonic_us(), std::memory_order_relaxed);
       song_written_.fetch_add(1, std::memory_order_release);
       song_.pop();
@@ -406,8 +411,11 @@ void BoardLink::reader_loop() {
         stats_.board_errors.fetch_add(1, std::memory_order_relaxed);
         stats_.last_error.store(p[1], std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgCaps) {
-        const uint64_t asked = hello_sent_us_.exchange(0, std::memory_order_acq_rel);
-        if (!asked || monotonic_us() > asked + kHelloAnswerUs) stats_.restarted.store(true, std::memory_order_relaxed);
+        uint32_t out = hellos_out_.load(std::memory_order_acquire);
+        const bool recent = monotonic_us() < hello_sent_us_.load(std::memory_order_relaxed) + kHelloAnswerUs;
+        while (recent && out > 0 && !hellos_out_.compare_exchange_weak(out, out - 1, std::memory_order_acq_rel)) {
+        }
+        if (!recent || out == 0) stats_.restarted.store(true, std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgStatus) {
         try {
           const Status s = parse_status(p, len);

@@ -10,7 +10,8 @@
 //   writer thread  writer_loop(): takes the ownership (yielding while the engine holds it for
 //                  its one write), drains the queue into the coalescer and sends; heartbeats,
 //                  status requests, state refreshes, jam song frames; stop-all at the end.
-//   reader thread  reader_loop(): decodes replies into the stats; touches no sending state.
+//   reader thread  reader_loop(): decodes replies into the stats; of the sending state it
+//                  touches only the count of song hellos not yet answered.
 //   song thread    queue_song_frame(), read_replies() (jam, one player a board).
 //   main thread    start(), request_stop_*() then join_*() (every board asked before any is
 //                  joined), detach(), attach(); stats() from any thread.
@@ -52,9 +53,10 @@ static_assert(Board::kSilentMs >= 3 * kStatusEveryMs, "a silent board has missed
 // The reader passes at least every 50 ms (its read's timeout); a longer gap is its thread held
 // up, not the board's silence (BoardStats::heard_us).
 constexpr uint64_t kReaderGapUs = 200000;
-// Capabilities within this long after a song player's hello answer it; later ones come
-// unasked (BoardStats::restarted). A hello is answered within milliseconds.
-constexpr uint64_t kHelloAnswerUs = 1000000;
+// Capabilities within this long after a song player's hello answer it (one a hello); others
+// come unasked (BoardStats::restarted). A hello is answered within milliseconds: the board's
+// reply, and a bridge's batching (16 ms on an FTDI chip).
+constexpr uint64_t kHelloAnswerUs = 250000;
 // Every motor's state is sent again this often, so that a frame the board lost (line noise,
 // an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
 // period keeps its phase; silence to a silent motor does nothing.
@@ -68,8 +70,7 @@ struct BoardStats {
   std::atomic<bool> write_failed{false}, read_failed{false};
   // The board sent its capabilities unasked: it started again with the link up (its reset
   // button, a brown-out) and runs on its defaults, silent. Set by the reader for capabilities
-  // that come more than kHelloAnswerUs after the writer sent a song player's hello (those
-  // answer it); cleared when a link is attached.
+  // that answer no song player's hello (kHelloAnswerUs); cleared when a link is attached.
   std::atomic<bool> restarted{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
@@ -210,8 +211,10 @@ class BoardLink {
   size_t partial_pos_ = 0;
   bool forward_ = false;
   std::atomic<uint8_t> song_motors_{0};
-  // When the writer handed a song player's hello to the OS (monotonic_us; 0: none since the
-  // last capabilities). Written by the writer, read and cleared by the reader.
+  // A song player's hellos the board has not answered yet, and when the writer sent the latest
+  // (monotonic_us). The writer counts each up just before its write, the reader counts one down
+  // for capabilities within kHelloAnswerUs of it; attach() clears both.
+  std::atomic<uint32_t> hellos_out_{0};
   std::atomic<uint64_t> hello_sent_us_{0};
   uint64_t song_queued_ = 0;                 // song frames queued (the song player's thread)
   std::atomic<uint64_t> song_written_{0};    // song frames the writer handed to the OS
