@@ -1,8 +1,8 @@
 // test_jam_reset.cpp: `stepchoir jam` when its board resets with its USB link up (the reset
 // button, or a brown-out from the motor supply) while a song plays and a key is held: the real
 // binary, a JACK keyboard, the real firmware on the virtual board. An Uno's optiboot starts the
-// firmware at once; a Mega's stk500v2 waits for 5 s with no byte from the host, which jam must
-// give it. The same for `live`: test_live_rig.cpp; for `play`: test_play.cpp.
+// firmware after its 1.375 s whatever the host sends; a Mega's stk500v2 waits for 5 s with no
+// byte from the host, which jam must give it. jam's link keeper sets the board up again. The same for `live`: test_live_rig.cpp; for `play`: test_play.cpp.
 #include <catch2/catch.hpp>
 
 #include <signal.h>
@@ -44,8 +44,8 @@ struct ResetCase {
 
 }  // namespace
 
-TEST_CASE("jam: the board reset with its link up (its button) mid-song - the song's player sets it up again from "
-          "the rig file and plays on, and the held key sounds again - an Uno at once, a Mega once jam goes quiet",
+TEST_CASE("jam: the board reset with its link up (its button) mid-song is set up again from the rig file, once, "
+          "the song plays on and the held key sounds again - an Uno after its bootloader, a Mega once jam goes quiet",
           "[play][jam][safety][pacing]") {
   // Uno: its 1.375 s bootloader. Mega: jam hears nothing for 3.5 s and goes quiet, then the
   // bootloader's 5 s of silence and the set-up.
