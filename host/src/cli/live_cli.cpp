@@ -159,9 +159,11 @@ int run_live(const LiveOptions &o, const std::atomic<bool> &stop) {
     if (learn_path.empty()) throw std::runtime_error("--learn: no rig file to save to (give --config FILE, or set HOME)");
     learn = std::make_unique<LearnPrompt>(learn_path, alloc.motor_count);
   }
+  LiveSession session(pool, alloc);
+  // After the session: however this function leaves, the setlist's song players, which write
+  // through the session, are stopped and joined before it goes.
   std::unique_ptr<SetlistRunner> setlist;
   if (!cfg.setlist.empty()) setlist = std::make_unique<SetlistRunner>(cfg.setlist, setlist_boards, cfg.a4_hz);
-  LiveSession session(pool, alloc);
   session.set_presets(std::move(presets));
   for (const Binding &b : controls) session.bind(b);
   for (size_t b = 0; setlist && setlist->has_songs() && b < pool.size(); ++b) session.forward_replies(b);
