@@ -82,9 +82,9 @@ TEST_CASE("link: on the 16u2 model host frames land on 1 ms USB frames and repli
   for (const BridgeRun *run : {&usb, &ideal}) {
     for (size_t i = 0; i < run->frame_ns.size(); ++i) REQUIRE(run->reply_done_ns(i) > 0);
   }
-  // Host -> board: every clock request (the same length) reaches the UART at the same point of
-  // a 1 ms frame, to a few cycles (the loop ends its step where the bridge releases a byte); on
-  // the ideal link, anywhere.
+  // Host -> board: every clock request (the same length) reaches the UART at one place of a 1 ms
+  // frame, give or take where the 16U2's main loop stands when the packet lands (its first byte
+  // 7.6-16.9 us into the frame: bench/results/usb-16u2-firmware.md); on the ideal link, anywhere.
   const double usb_in = phase_spread(usb.frame_ns, 1e6), ideal_in = phase_spread(ideal.frame_ns, 1e6);
   // Board -> host: the 16U2 passes replies at its Timer0 overflows only (hello's too).
   const double usb_out = phase_spread(usb.reply_ns, 4096000), ideal_out = phase_spread(ideal.reply_ns, 4096000);
@@ -99,7 +99,8 @@ TEST_CASE("link: on the 16u2 model host frames land on 1 ms USB frames and repli
                                 << usb_out / 1e3 << " us, ideal " << ideal_out / 1e3 << " us; reply after the frame: 16u2 max "
                                 << usb_rtt_max / 1e3 << " us mean " << usb_rtt_sum / usb.frame_ns.size() / 1e3
                                 << " us, ideal max " << ideal_rtt_max / 1e3 << " us");
-  CHECK(usb_in < 1e3);
+  CHECK(usb_in < 11e3);
+  CHECK(usb_in > 5e3);
   CHECK(ideal_in > 300e3);
   CHECK(usb_out < 1e3);
   CHECK(ideal_out > 1000e3);

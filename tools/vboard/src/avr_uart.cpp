@@ -1,5 +1,6 @@
 // avr_uart.cpp: the UART0 bridge between the pty and simavr: byte timing, receive feed, transmit double buffer.
 #include "avr_adapter.h"
+#include "avr_uart_timing.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -57,19 +58,9 @@ void AvrAdapter::end_run_at_tx_pass() {
   if (at < run_end_cycle_) run_end_cycle_ = at;
 }
 
-// UART0 byte time in cycles: (UBRR+1) * (U2X ? 8 : 16) per bit, start + data + parity + stop bits.
+// UART0 byte time in cycles, from its registers (avr_uart_timing.h).
 uint64_t AvrAdapter::uart_byte_cycles() const {
-  const avr_uart_t *uart = static_cast<const avr_uart_t *>(uart_);
-  const uint8_t *data = avr_->data;
-  const uint32_t ubrr = data[uart->ubrrl.reg] | ((data[uart->ubrrh.reg] & 0x0f) << 8);
-  const bool u2x = (data[uart->u2x.reg] >> uart->u2x.bit) & 1;
-  static const int kDataBits[8] = {5, 6, 7, 8, 8, 8, 8, 9};
-  const int ucsz = ((data[uart->ucsz.reg] >> uart->ucsz.bit) & 3) |
-                   (((data[uart->ucsz2.reg] >> uart->ucsz2.bit) & 1) << 2);
-  const int stop_bits = 1 + ((data[uart->usbs.reg] >> uart->usbs.bit) & 1);
-  const int parity_bits = ((data[uart->r_ucsrc] >> 4) & 3) != 0 ? 1 : 0;  // UPMn1:0
-  const uint64_t bit_cycles = static_cast<uint64_t>(ubrr + 1) * (u2x ? 8 : 16);
-  return bit_cycles * static_cast<uint64_t>(1 + kDataBits[ucsz] + parity_bits + stop_bits);
+  return vboard::uart_byte_cycles(avr_, static_cast<const avr_uart_t *>(uart_));
 }
 
 // simavr 1.6 computes the byte time only when UBRRnL is written (never if the firmware keeps the

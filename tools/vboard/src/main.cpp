@@ -280,7 +280,7 @@ void write_trace_preamble(const Options &options, const BoardConfig &board, cons
 }
 
 // The USB bridge of --link-model, its USB frames and timer at phases drawn from --seed (a real
-// bridge's clock starts at no particular moment).
+// bridge's clock starts at no particular moment), and its draws seeded from it.
 UsbBridge make_bridge(const Options &options) {
   LinkModel model = LinkModel::kIdeal;
   parse_link_model(options.link_model, model);
@@ -288,7 +288,7 @@ UsbBridge make_bridge(const Options &options) {
   std::mt19937_64 rng(options.seed ^ 0x5eedb41d6eull);
   const uint64_t frame_phase = timing.usb_frame_ns ? rng() % timing.usb_frame_ns : 0;
   const uint64_t flush_phase = timing.flush_period_ns ? rng() % timing.flush_period_ns : 0;
-  return UsbBridge(model, timing, frame_phase, flush_phase);
+  return UsbBridge(model, timing, frame_phase, flush_phase, rng());
 }
 
 // Everything one run needs, in construction order. real_stdout receives the pty line only.

@@ -33,8 +33,11 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
       // BUFFER_NEARLY_FULL (96) bytes wait.
       t.flush_period_ns = 256ull * 256 * 1000000000ull / 16000000;
       t.packet_bytes = 97;
-      // One host byte a pass of its main loop: about 245 cycles at 16 MHz by the instruction
-      // count of Arduino's build (docs/usb-bridges.md).
+      // Host bytes: the main loop reads the OUT endpoint one byte a pass, 245 cycles at 16 MHz;
+      // the packet's first byte goes out 121-270 cycles after the packet lands, as the loop
+      // comes round (bench/results/usb-16u2-firmware.md).
+      t.first_byte_min_ns = 121ull * 1000000000ull / 16000000;
+      t.first_byte_max_ns = 270ull * 1000000000ull / 16000000;
       t.host_byte_ns = 245ull * 1000000000ull / 16000000;
       break;
     case LinkModel::kFtdi:
@@ -50,15 +53,25 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
   return t;
 }
 
-UsbBridge::UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns)
-    : model_(model), timing_(timing), frame_phase_ns_(frame_phase_ns), next_flush_ns_(flush_phase_ns) {}
+UsbBridge::UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns,
+                     uint64_t seed)
+    : model_(model),
+      timing_(timing),
+      frame_phase_ns_(frame_phase_ns),
+      next_flush_ns_(flush_phase_ns),
+      draw_(static_cast<std::minstd_rand::result_type>(seed % 2147483646u + 1)) {}
 
 void UsbBridge::from_host(const uint8_t *bytes, size_t count, uint64_t now_ns) {
   uint64_t at = now_ns;
   if (timing_.usb_frame_ns) {  // the start of the next frame after now
     const uint64_t since = now_ns >= frame_phase_ns_ ? now_ns - frame_phase_ns_ : 0;
     at = frame_phase_ns_ + (since / timing_.usb_frame_ns + 1) * timing_.usb_frame_ns;
+    if (timing_.first_byte_max_ns > timing_.first_byte_min_ns)
+      at += timing_.first_byte_min_ns + draw_() % (timing_.first_byte_max_ns - timing_.first_byte_min_ns + 1);
+    else
+      at += timing_.first_byte_min_ns;
   }
+  if (!to_board_.empty() && to_board_.back().at_ns > at) at = to_board_.back().at_ns;  // bytes keep their order
   for (size_t i = 0; i < count; ++i) to_board_.push_back({at, bytes[i]});
 }
 

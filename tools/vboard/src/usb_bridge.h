@@ -5,7 +5,8 @@
 // Models (sources: docs/usb-bridges.md):
 //   ideal  bytes pass at once both ways (a pty, a native UART).
 //   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): host -> board in
-//          the next 1 ms USB frame, then a byte a pass of the 16U2's main loop (about 15 us);
+//          the next 1 ms USB frame, the first byte 7.6-16.9 us into it (the 16U2's main loop
+//          coming round to the endpoint), then a byte a pass of that loop (15.3 us);
 //          board -> host when the 16U2's Timer0 overflows (every 4.096 ms, free-running) or as
 //          soon as more than 96 bytes wait.
 //   ftdi   FT232R boards: host -> board in the next 1 ms frame; board -> host when the
@@ -19,6 +20,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -33,6 +35,8 @@ const char *link_model_name(LinkModel model);
 // The bridge's figures (ns, bytes); what link_model_timing gives per model.
 struct BridgeTiming {
   uint64_t usb_frame_ns = 1000000;  // host -> board: a write goes out at the next frame start
+  uint64_t first_byte_min_ns = 0;   // ... its first byte reaches the UART this long after the
+  uint64_t first_byte_max_ns = 0;   // frame's start, drawn uniformly from [min, max] per write
   uint64_t host_byte_ns = 0;        // ... and the bridge hands the UART a byte at most this often
                                     // (0: back to back at the line's rate); AvrAdapter paces it
   uint64_t flush_period_ns = 0;     // board -> host: waiting bytes go at each period's end (0: at once)
@@ -45,8 +49,10 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms = 16);
 class UsbBridge {
  public:
   // phase_ns: where the host's USB frames and the bridge's timer stand at host time 0 (a real
-  // bridge's clock starts at no particular moment); each below period.
-  UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns);
+  // bridge's clock starts at no particular moment); each below period. seed: the draws of
+  // first_byte_*_ns.
+  UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame_phase_ns, uint64_t flush_phase_ns,
+            uint64_t seed = 1);
 
   // Called from: the pty loop. Bytes the host wrote, read at host time now_ns.
   void from_host(const uint8_t *bytes, size_t count, uint64_t now_ns);
@@ -86,6 +92,7 @@ class UsbBridge {
   BridgeTiming timing_;
   uint64_t frame_phase_ns_;
   uint64_t next_flush_ns_;  // the bridge's next timer expiry
+  std::minstd_rand draw_;
   std::deque<Timed> to_board_;
   std::deque<Timed> from_board_;
   std::vector<uint8_t> released_;  // passed at once (a full packet), not yet handed to to_host

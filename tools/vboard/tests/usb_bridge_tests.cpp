@@ -1,6 +1,7 @@
 // usb_bridge_tests.cpp: the USB-serial bridge models, byte by byte against their rules.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <vector>
 
 #include "pacer.h"
@@ -48,16 +49,51 @@ TEST_CASE("usb bridge: ideal passes bytes at once both ways") {
   CHECK(arrival(b, 7000) == 7000);
 }
 
-TEST_CASE("usb bridge: a host write reaches the board at the next 1 ms frame") {
+TEST_CASE("usb bridge: a host write reaches the board in the next 1 ms frame, when the 16U2's loop comes round") {
+  const BridgeTiming t = link_model_timing(LinkModel::k16u2);
+  REQUIRE(t.first_byte_min_ns > 7000);  // 121 and 270 cycles of 16 MHz: bench/results/usb-16u2-firmware.md
+  REQUIRE(t.first_byte_max_ns < 17000);
   UsbBridge b = make(LinkModel::k16u2, 300000);
   const uint8_t byte = 0x42;
   b.from_host(&byte, 1, 2 * kMs + 100000);  // written 0.1 ms into a frame that began at 1.3 ms
-  CHECK_FALSE(b.board_byte_ready(2 * kMs + 299999));
-  CHECK(b.board_byte_ready(2 * kMs + 300000));
-  b.from_host(&byte, 1, 2 * kMs + 300000);  // written on a frame's first ns: the next one
+  CHECK_FALSE(b.board_byte_ready(2 * kMs + 300000 + t.first_byte_min_ns - 1));
+  CHECK(b.board_byte_ready(2 * kMs + 300000 + t.first_byte_max_ns));
   b.board_byte_pop();
-  CHECK_FALSE(b.board_byte_ready(3 * kMs + 299999));
-  CHECK(b.board_byte_ready(3 * kMs + 300000));
+  b.from_host(&byte, 1, 2 * kMs + 300000);  // written on a frame's first ns: the next one
+  CHECK_FALSE(b.board_byte_ready(3 * kMs + 300000 + t.first_byte_min_ns - 1));
+  CHECK(b.board_byte_ready(3 * kMs + 300000 + t.first_byte_max_ns));
+  // The ideal link's writes wait for no frame; an FTDI or CH340 bridge's wait for one only.
+  UsbBridge ftdi = make(LinkModel::kFtdi, 300000);
+  ftdi.from_host(&byte, 1, 2 * kMs + 100000);
+  CHECK_FALSE(ftdi.board_byte_ready(2 * kMs + 299999));
+  CHECK(ftdi.board_byte_ready(2 * kMs + 300000));
+}
+
+TEST_CASE("usb bridge: the 16U2's first byte falls anywhere in its range, and host bytes keep their order") {
+  const BridgeTiming t = link_model_timing(LinkModel::k16u2);
+  UsbBridge b = make(LinkModel::k16u2);
+  uint64_t earliest = UINT64_MAX, latest = 0;
+  for (uint64_t frame = 1; frame <= 400; ++frame) {
+    const uint8_t byte = uint8_t(frame);
+    b.from_host(&byte, 1, frame * kMs - 500000);
+    const uint64_t wait = b.next_board_byte_ns() - frame * kMs;
+    earliest = std::min(earliest, wait);
+    latest = std::max(latest, wait);
+    b.board_byte_pop();
+  }
+  CHECK(earliest >= t.first_byte_min_ns);
+  CHECK(latest <= t.first_byte_max_ns);
+  CHECK(latest - earliest > (t.first_byte_max_ns - t.first_byte_min_ns) * 9 / 10);
+  // Two writes in one frame: the second's bytes never reach the board before the first's.
+  for (uint64_t frame = 500; frame < 600; ++frame) {
+    const uint8_t first = 1, second = 2;
+    b.from_host(&first, 1, frame * kMs + 100000);
+    b.from_host(&second, 1, frame * kMs + 200000);
+    const uint64_t first_at = b.next_board_byte_ns();
+    REQUIRE(b.board_byte_pop() == 1);
+    CHECK(b.next_board_byte_ns() >= first_at);
+    REQUIRE(b.board_byte_pop() == 2);
+  }
 }
 
 TEST_CASE("usb bridge: each model says when it next passes board bytes to the host") {
@@ -148,9 +184,10 @@ TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, before or
   // Bytes read at wall 2.25 ms arrived at 2.25 ms, wherever the simulation stands.
   CHECK(host_arrival_ns(pacer, 2250000) == 2250000);
 
-  // A 16u2 with frames starting at 0.3 ms: the byte written at 2.25 ms goes in the 2.3 ms
-  // frame, as on a real board, while the simulation (at 2.29 ms) has not reached that frame.
-  UsbBridge b = make(LinkModel::k16u2, 300000);
+  // An FTDI bridge (a frame's bytes at its start) with frames starting at 0.3 ms: the byte
+  // written at 2.25 ms goes in the 2.3 ms frame, as on a real board, while the simulation (at
+  // 2.29 ms) has not reached that frame.
+  UsbBridge b = make(LinkModel::kFtdi, 300000);
   const uint8_t byte = 0x42;
   b.from_host(&byte, 1, host_arrival_ns(pacer, 2250000));
   CHECK(b.next_board_byte_ns() == 2300000);
