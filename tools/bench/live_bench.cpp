@@ -190,6 +190,8 @@ int main(int argc, char **argv) {
       << "| after the last release: motors the host still plays (bit mask; a note-off lost inside JACK) | " << held
       << " |\n"
       << "| board counters: bad frames / UART overruns | " << frames_bad << " / " << overruns << " |\n"
+      << "| host bytes that came before the firmware's UART was on (lost; the first hello's part: a bad frame) | "
+      << sc::trace::uart_in_lost(trace) << " |\n"
       << "| updates coalesced by the writer | " << stats.coalesced.load() << " |\n"
       << "| set-period frames the engine wrote itself (no writer wake-up) | " << stats.direct_frames.load() << " |\n"
       << "| frames written / heartbeats | " << session.board_stats(0).frames_sent.load() << " / "

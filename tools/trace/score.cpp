@@ -247,6 +247,8 @@ long pacing_slipped_us(const Trace &t) { return summary_value(t, "pacing_slipped
 
 long pacing_lag_max_us(const Trace &t) { return summary_value(t, "pacing_lag_max_us"); }
 
+long uart_in_lost(const Trace &t) { return summary_value(t, "uart_in_lost"); }
+
 double pacing_lag_max_s(const Trace &t) {
   const long cycle = summary_value(t, "pacing_lag_max_cycle");
   return cycle < 0 ? -1.0 : t.real_seconds(static_cast<uint64_t>(cycle));

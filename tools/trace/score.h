@@ -58,6 +58,10 @@ long pacing_slipped_us(const Trace &t);
 long pacing_lag_max_us(const Trace &t);
 // Where (real seconds into the trace) it fell that far behind; -1 when the trace has no summary.
 double pacing_lag_max_s(const Trace &t);
+// Host bytes that reached the virtual board while its UART was off (a bootloader, or the
+// firmware not yet started): lost, as on a real board; -1 when the trace has no summary.
+// Called from: the live bench, to tell those from bytes the board got and found bad.
+long uart_in_lost(const Trace &t);
 
 }  // namespace trace
 }  // namespace sc
