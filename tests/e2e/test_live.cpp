@@ -1,9 +1,9 @@
 // test_live.cpp: `stepchoir live` end to end, no fakes: a JACK server (dummy driver), a test
-// sender on a JACK MIDI port, the stepchoir process reading it through RtMidi, and the real
-// firmware on the virtual board. The board's trace must show every note at its pitch on some
-// motor, started and released on time (chords, velocity-0 note-offs, sustain, bends); after
-// hundreds of random events nothing may sound; SIGTERM must silence a held note at once. Then:
-// board unplugged and back, keyboard unplugged and back, two boards in one pool. The rig
+// sender on a JACK MIDI port, the stepchoir process reading it through its own JACK client, and
+// the real firmware on the virtual board. The board's trace must show every note at its pitch on
+// some motor, started and released on time (chords, velocity-0 note-offs, sustain, bends);
+// after hundreds of random events nothing may sound; SIGTERM must silence a held note at once.
+// Then: board unplugged and back, keyboard unplugged and back, two boards in one pool. The rig
 // file's part: test_live_rig.cpp.
 #include <catch2/catch.hpp>
 

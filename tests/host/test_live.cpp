@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "live/coalescer.h"
+#include "live/jack_midi_input.h"
 #include "live/latency_histogram.h"
 #include "live/link_budget.h"
 #include "live/midi_in.h"
@@ -40,6 +41,42 @@ TEST_CASE("live: raw MIDI messages become events, others are refused", "[live]")
   const unsigned char data_only[] = {0x40, 0x40};
   CHECK_FALSE(parse_midi_message(data_only, 2, 0, &e));
   CHECK_FALSE(parse_midi_message(on, 0, 0, &e));
+}
+
+TEST_CASE("live: a JACK MIDI event is used only when its bytes lie inside the port buffer", "[live]") {
+  // A port buffer as JACK hands it over; an event read from it points into it (a short event's
+  // bytes are kept inline there). One read while an overrunning cycle rewrote the buffer can
+  // point anywhere, or be longer than any message the live path takes.
+  alignas(8) unsigned char memory[288] = {};
+  unsigned char *const buffer = memory + 16;  // the port buffer: 256 bytes
+  const size_t bytes = 256;
+  jack_midi_event_t e{};
+  e.buffer = buffer + 40;
+  e.size = 3;
+  CHECK(jack_event_usable(e, buffer, bytes));
+  e.size = 1;  // a clock tick
+  CHECK(jack_event_usable(e, buffer, bytes));
+  e.buffer = buffer + bytes - 3;
+  e.size = 3;
+  CHECK(jack_event_usable(e, buffer, bytes));  // its last byte the buffer's last
+  e.buffer = buffer + bytes - 2;
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));  // runs past the end
+  e.buffer = buffer - 1;
+  e.size = 1;
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));  // before it
+  unsigned char elsewhere[3] = {0x90, 60, 100};
+  e.buffer = elsewhere;
+  e.size = 3;
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));
+  e.buffer = nullptr;
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));
+  e.buffer = buffer + 40;
+  e.size = 0;
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));
+  e.size = kJackMidiMaxBytes + 1;  // a sysex, or a garbage length
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));
+  e.size = ~size_t(0);  // a length that wraps the pointer
+  CHECK_FALSE(jack_event_usable(e, buffer, bytes));
 }
 
 TEST_CASE("live: the coalescer sends the latest state per motor", "[live]") {

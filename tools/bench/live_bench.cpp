@@ -1,4 +1,4 @@
-// live_bench.cpp: latency of the live path, RtMidi callback -> frame handed to the OS, over a
+// live_bench.cpp: latency of the live path, MIDI callback -> frame handed to the OS, over a
 // real JACK MIDI connection into the real firmware on the virtual board; plus wire time, and
 // key -> first STEP edge of single notes part by part (live_parts.h).
 #include <CLI/CLI.hpp>
@@ -162,13 +162,13 @@ int main(int argc, char **argv) {
       << "Date: " << date << "\n\n"
       << "Method: a private JACK server (`jackd " << (jack_realtime ? "-R" : "-r") << " -d dummy -r " << jack_rate
       << " -p " << jack_period << "`; its period as the server reports it: " << period_us << " us), a sender on a virtual JACK MIDI "
-         "output, `stepchoir`'s MidiIn (RtMidi, JACK API) on it, a LiveSession (engine and writer threads) and the real "
+         "output, `stepchoir`'s MidiIn (a JACK client of its own: docs/decisions/026-jack-midi-input.md) on it, a LiveSession (engine and writer threads) and the real "
          "firmware on the virtual board (" << board_name << ", " << int(caps.motor_count) << " motors) on a pty. "
       << events << " note events (on/off alternating, each changes one motor) at " << rate_hz
-      << " per second, then the last note's release. Latency per set-period entry: from the timestamp the RtMidi callback takes to the "
+      << " per second, then the last note's release. Latency per set-period entry: from the timestamp the MIDI callback takes to the "
          "return of the write() on the link (the frame handed to the OS), by the writer thread or by the engine when the link was idle.\n\n"
       << "| measure | value |\n|---|---|\n"
-      << "| events sent / reached the RtMidi callback / dropped at the callback | " << events << " / "
+      << "| events sent / reached the MIDI callback / dropped at the callback | " << events << " / "
       << midi.received() + midi.dropped() << " / " << midi.dropped() << " |\n"
       << "| engine and writer threads with SCHED_FIFO | " << session.realtime_threads() << " of 2 |\n"
       << "| latency samples | " << h.count() << " |\n"

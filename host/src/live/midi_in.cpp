@@ -1,4 +1,4 @@
-// midi_in.cpp: RtMidi input ports -> MidiQueue.
+// midi_in.cpp: MIDI input ports (RtMidi's ALSA, JackMidiInput's JACK) -> MidiQueue.
 #include "live/midi_in.h"
 
 #include <RtMidi.h>
@@ -8,6 +8,7 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "live/jack_midi_input.h"
 #include "live/jack_period.h"
 #include "live/rt_guard.h"
 
@@ -23,6 +24,11 @@ const char *api_name(MidiApi api) { return api == MidiApi::kJack ? "jack" : "als
 // Called from: RtMidi's thread for every message. Hands it to MidiIn::on_message.
 void rtmidi_callback(double, std::vector<unsigned char> *message, void *user) {
   static_cast<MidiIn *>(user)->on_message(message->data(), message->size());
+}
+
+// Called from: JACK's process thread for every usable message. Hands it to MidiIn::on_message.
+void jack_callback(const unsigned char *bytes, size_t len, void *user) noexcept {
+  static_cast<MidiIn *>(user)->on_message(bytes, len);
 }
 
 // Called from: RtMidi on a port error after opening. Nothing to do on that thread: the
@@ -49,53 +55,99 @@ uint64_t monotonic_us() noexcept {
                                    .count());
 }
 
+namespace {
+
+// Called from: MidiIn's constructor. The index of the port `selector` names among `names`: all
+// digits is an index, anything else a case-insensitive substring (the first match). Throws
+// std::runtime_error naming the selector and the ports there are.
+int pick_port(const std::string &selector, const std::vector<std::string> &names, MidiApi api) {
+  int index = -1;
+  if (!selector.empty() && std::all_of(selector.begin(), selector.end(), ::isdigit)) {
+    const unsigned long i = std::stoul(selector);
+    if (i < names.size()) index = static_cast<int>(i);
+  } else {
+    for (size_t i = 0; i < names.size() && index < 0; ++i)
+      if (lower(names[i]).find(lower(selector)) != std::string::npos) index = static_cast<int>(i);
+  }
+  if (index >= 0) return index;
+  std::string list;
+  for (size_t i = 0; i < names.size(); ++i) list += "\n  " + std::to_string(i) + ": " + names[i];
+  throw std::runtime_error("--midi '" + selector + "': no such " + api_name(api) + " MIDI input" +
+                           (names.empty() ? std::string("; there are none") : "; there are:" + list) +
+                           "\n  (or use --midi virtual)");
+}
+
+// "virtual" or "virtual:NAME" -> the virtual port's name (NAME, else "stepchoir in"); false for
+// any other selector.
+bool virtual_port(const std::string &selector, std::string *name) {
+  if (selector != "virtual" && selector.rfind("virtual:", 0) != 0) return false;
+  *name = selector.size() > 8 ? selector.substr(8) : "stepchoir in";
+  return true;
+}
+
+}  // namespace
+
 std::vector<std::string> list_midi_inputs(MidiApi api) {
   try {
+    if (api == MidiApi::kJack) return JackMidiInput("stepchoir ports", jack_callback, nullptr).sources();
     RtMidiIn in(rtmidi_api(api), "stepchoir ports");
     std::vector<std::string> out;
     for (unsigned i = 0, n = in.getPortCount(); i < n; ++i) out.push_back(in.getPortName(i));
     return out;
   } catch (const RtMidiError &e) {
     throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.getMessage());
+  } catch (const std::runtime_error &e) {
+    throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.what());
   }
 }
 
 MidiIn::MidiIn(MidiApi api, const std::string &selector, MidiQueue &queue) : queue_(queue) {
-  if (api == MidiApi::kJack) clock_delay_us_ = static_cast<uint64_t>(jack_period_us() / 2);
+  if (api == MidiApi::kJack) {
+    clock_delay_us_ = static_cast<uint64_t>(jack_period_us() / 2);
+    open_jack(selector);
+    return;
+  }
   try {
     in_ = std::make_unique<RtMidiIn>(rtmidi_api(api), "stepchoir");
     in_->setErrorCallback(rtmidi_error, this);
     in_->ignoreTypes(true, true, true);  // sysex, clock, active sensing: never reach the queue
     in_->setCallback(rtmidi_callback, this);
-    if (selector == "virtual" || selector.rfind("virtual:", 0) == 0) {
-      port_name_ = selector.size() > 8 ? selector.substr(8) : "stepchoir in";
+    if (virtual_port(selector, &port_name_)) {
       in_->openVirtualPort(port_name_);
       port_name_ = std::string("virtual port '") + port_name_ + "'";
       is_virtual_ = true;
       return;
     }
-    const unsigned count = in_->getPortCount();
     std::vector<std::string> names;
-    for (unsigned i = 0; i < count; ++i) names.push_back(in_->getPortName(i));
-    int index = -1;
-    if (!selector.empty() && std::all_of(selector.begin(), selector.end(), ::isdigit)) {
-      const unsigned long i = std::stoul(selector);
-      if (i < count) index = static_cast<int>(i);
-    } else {
-      for (unsigned i = 0; i < count && index < 0; ++i)
-        if (lower(names[i]).find(lower(selector)) != std::string::npos) index = static_cast<int>(i);
-    }
-    if (index < 0) {
-      std::string list;
-      for (unsigned i = 0; i < count; ++i) list += "\n  " + std::to_string(i) + ": " + names[i];
-      throw std::runtime_error("--midi '" + selector + "': no such " + api_name(api) + " MIDI input" +
-                               (count ? "; there are:" + list : std::string("; there are none")) +
-                               "\n  (or use --midi virtual)");
-    }
+    for (unsigned i = 0, count = in_->getPortCount(); i < count; ++i) names.push_back(in_->getPortName(i));
+    const int index = pick_port(selector, names, api);
     in_->openPort(static_cast<unsigned>(index), "stepchoir in");
     port_name_ = names[index];
   } catch (const RtMidiError &e) {
     throw std::runtime_error(std::string("MIDI (") + api_name(api) + "): " + e.getMessage());
+  }
+}
+
+// The JACK API: a client of our own (jack_midi_input.h), its input port connected to the
+// selected source, or left for other programs to connect to (virtual). Sysex never reaches
+// the callback; clock messages do, and on_message drops them until route_clock.
+void MidiIn::open_jack(const std::string &selector) {
+  try {
+    jack_ = std::make_unique<JackMidiInput>("stepchoir", jack_callback, this);
+    if (virtual_port(selector, &port_name_)) {
+      jack_->open(port_name_, "");
+      port_name_ = std::string("virtual port '") + port_name_ + "'";
+      is_virtual_ = true;
+      return;
+    }
+    const std::vector<std::string> names = jack_->sources();
+    jack_source_ = names[pick_port(selector, names, MidiApi::kJack)];
+    jack_->open("stepchoir in", jack_source_);
+    port_name_ = jack_source_;
+  } catch (const std::runtime_error &e) {
+    jack_.reset();
+    const std::string what = e.what();
+    throw std::runtime_error(what.rfind("--midi", 0) == 0 ? what : "MIDI (jack): " + what);
   }
 }
 
@@ -106,6 +158,7 @@ std::unique_ptr<MidiIn> MidiIn::without_port(MidiQueue &queue) {
 }
 
 bool MidiIn::still_there() {
+  if (jack_) return jack_->still_there(jack_source_);
   if (is_virtual_ || !in_) return true;
   try {
     for (unsigned i = 0, n = in_->getPortCount(); i < n; ++i)
@@ -115,11 +168,14 @@ bool MidiIn::still_there() {
   return false;
 }
 
-// RtMidi's input closes its port and then its JACK client or ALSA thread, which waits out a
-// callback in flight; the callback stays set meanwhile (cancelCallback first would let a JACK
-// cycle in flight read the callback after it was cleared, and call a null one), and every
-// member it touches is still alive here.
-MidiIn::~MidiIn() { in_.reset(); }
+// RtMidi's input closes its port and then its ALSA thread, and JackMidiInput deactivates its
+// client: each waits out a callback in flight. The callback stays set meanwhile (RtMidi's
+// cancelCallback first would let a callback in flight read it after it was cleared, and call a
+// null one), and every member it touches is still alive here.
+MidiIn::~MidiIn() {
+  in_.reset();
+  jack_.reset();
+}
 
 bool parse_midi_message(const unsigned char *bytes, size_t len, uint64_t t_us, MidiEvent *out) noexcept {
   if (len < 1 || bytes[0] < 0x80 || bytes[0] >= 0xF0) return false;
@@ -145,6 +201,7 @@ bool parse_clock_message(const unsigned char *bytes, size_t len, uint64_t t_us, 
   return true;
 }
 
+// The JACK input passes clock messages always; on_message drops them while no queue is set.
 void MidiIn::route_clock(ClockQueue &queue) {
   for (auto &slot : clock_) {
     ClockQueue *none = nullptr;

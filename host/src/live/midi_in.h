@@ -1,7 +1,8 @@
-// midi_in.h: the RtMidi adapter: MIDI input ports in, timestamped MidiEvents into a lock-free queue.
+// midi_in.h: the MIDI input adapter: MIDI input ports in, timestamped MidiEvents into a lock-free
+// queue. ALSA ports through RtMidi, JACK ports through JackMidiInput (jack_midi_input.h).
 //
-// The RtMidi callback is the first link of the live path. It runs on RtMidi's thread (ALSA's
-// input thread or JACK's process thread) and does three things only: read the clock, build a
+// The MIDI callback is the first link of the live path. It runs on RtMidi's ALSA input thread or
+// JACK's process thread and does three things only: read the clock, build a
 // fixed-size MidiEvent, try_enqueue it. It never allocates, locks, blocks or logs; when the
 // queue is full it counts the event as dropped. Debug builds assert that it does not allocate
 // (rt_guard.h).
@@ -21,6 +22,8 @@
 class RtMidiIn;
 
 namespace stepchoir {
+
+class JackMidiInput;
 
 // Single producer (the MIDI callback), single consumer (the engine thread). try_enqueue on a
 // queue built with a capacity never allocates; the blocking flavour lets the engine sleep
@@ -56,7 +59,7 @@ std::vector<std::string> list_midi_inputs(MidiApi api);
 // Called from: the MIDI callback, the engine and writer threads. Does not allocate or block.
 uint64_t monotonic_us() noexcept;
 
-// A raw MIDI message as RtMidi delivers it -> MidiEvent stamped t_us. False for anything but a
+// A raw MIDI message as the MIDI system delivers it -> MidiEvent stamped t_us. False for anything but a
 // channel message (status 0x80-0xEF with its data bytes); data bytes are masked to 7 bits.
 // Called from: the MIDI callback (and tests). Does not allocate.
 bool parse_midi_message(const unsigned char *bytes, size_t len, uint64_t t_us, MidiEvent *out) noexcept;
@@ -105,7 +108,10 @@ class MidiIn {
 
  private:
   explicit MidiIn(MidiQueue &queue);  // no port: see without_port
-  std::unique_ptr<RtMidiIn> in_;
+  void open_jack(const std::string &selector);
+  std::unique_ptr<RtMidiIn> in_;         // ALSA
+  std::unique_ptr<JackMidiInput> jack_;  // JACK
+  std::string jack_source_;              // the JACK port listened to; empty for a virtual port
   MidiQueue &queue_;
   std::string port_name_;
   bool is_virtual_ = false;
