@@ -89,9 +89,14 @@ void SetlistRunner::poll(LiveSession &session) {
     }
   }
   if (song_playing() && finished_.load() == threads_.size()) {
+    // A player that could not go on (its board lost for good, or not answering) says why.
+    std::string failed;
+    for (size_t k = 0; k < players_.size(); ++k)
+      if (!board_ok_[player_boards_[k]] && !players_[k]->error().empty())
+        failed += (failed.empty() ? "" : "; ") + players_[k]->error();
     end_song(session);
     say_("setlist " + std::to_string(position_ + 1) + "/" + std::to_string(items_.size()) + " " + item().name +
-         ": the song ended");
+         (failed.empty() ? ": the song ended" : ": the song stopped: " + failed));
   }
 }
 
