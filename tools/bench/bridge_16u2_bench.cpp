@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <ctime>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "analysis.h"
+#include "bench_date.h"
 #include "chip_16u2.h"
 #include "stepchoir_protocol.h"
 #include "usb_bridge.h"
@@ -176,13 +176,6 @@ std::vector<double> release_phases(const std::vector<uint64_t> &releases, uint64
   return phases;
 }
 
-std::string now_text() {
-  char buf[64];
-  const std::time_t t = std::time(nullptr);
-  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&t));
-  return buf;
-}
-
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -225,7 +218,7 @@ int main(int argc, char **argv) {
   std::ostringstream out;
   out << "# The 16U2 bridge measured: Arduino's usbserial firmware on a simulated chip\n\n"
       << "Command: `build/bin/stepchoir-bench-16u2 --hex Arduino-usbserial-atmega16u2-Uno-Rev3.hex --trials " << trials
-      << " --seed " << seed << "`\n\nDate: " << now_text() << "\n\n"
+      << " --seed " << seed << "`\n\nDate: " << utc_now_text() << "\n\n"
       << "Method: the firmware (`" << hex.substr(hex.find_last_of('/') + 1)
       << "`, from an Arduino IDE's `firmwares/atmegaxxu2/arduino-usbserial/`) runs on simavr's AT90USB162 "
          "(the ATmega16U2's predecessor: the same AVR core, USB controller, USART1 and Timer0) at 16 MHz. "

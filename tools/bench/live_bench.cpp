@@ -15,6 +15,7 @@
 #include <string>
 #include <thread>
 
+#include "bench_date.h"
 #include "board/board.h"
 #include "board/vboard_child.h"
 #include "score.h"
@@ -151,9 +152,7 @@ int main(int argc, char **argv) {
   const LatencyHistogram &h = session.latency();
   const uint64_t p50 = h.percentile(0.5), p99 = h.percentile(0.99), max = h.max_us();
   const double wire1 = wire_us(sc::kSetPeriodBytes);
-  char date[64];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
+  const std::string date = utc_now_text();
 
   const std::string path = out_dir + "/" + name + ".md";
   std::ofstream out(path);
