@@ -19,7 +19,7 @@ namespace sc {
 // Link and framing
 // ---------------------------------------------------------------------------------------------
 
-static const uint8_t kProtocolVersion = 2;     // in caps: the message layouts of this header
+static const uint8_t kProtocolVersion = 3;     // in caps: the message layouts of this header
 static const uint32_t kBaud = 1000000;         // bit/s; exact at 16 MHz with U2X clear, UBRR 0
 static const uint8_t kDelimiter = 0x00;        // ends every frame on the wire (COBS never emits it)
 static const uint8_t kMaxPayload = 60;         // bytes of message (type byte included), before CRC
@@ -87,6 +87,7 @@ enum MsgType : uint8_t {
   kMsgSetId = 0x0D,       // 8-byte board id (not kBoardIdNone, not all 0xFF) -> kMsgId
   kMsgMove = 0x0E,        // MoveBody: one motor moves a number of steps on a ramp -> kMsgMoveDone
   kMsgSetPosition = 0x0F, // SetPositionBody: a motor's counted position (steps) from now on
+  kMsgSilence = 0x10,     // u8 motor mask: those motors silent now, their timed entries dropped
   // board -> host
   kMsgCaps = 0x41,        // CapsBody + board name (ASCII, rest of payload)
   kMsgStatus = 0x42,      // StatusHead + one StatusMotor per motor

@@ -202,6 +202,11 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
       case kMsgSetPosition:
         rc = handle_set_position(p, len);
         break;
+      case kMsgSilence:
+        if (n != 1) { rc = kErrLength; break; }
+        if (body[0] >> hal::motor_count()) { rc = kErrMotor; break; }
+        hal::silence(body[0]);
+        break;
       case kMsgResetCounters:
         if (n != 0) { rc = kErrLength; break; }
         frames_ok_ = 0;

@@ -56,6 +56,8 @@ void stop_all() {
   drivers::disable_all();
 }
 
+void silence(uint8_t mask) { sched::silence(mask); }
+
 uint8_t configure(const sc::ConfigBody &c) { return drivers::configure(c); }
 
 uint8_t configure_driver(const sc::DriverBody &b) { return drivers::configure_power(b); }

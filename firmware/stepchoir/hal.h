@@ -43,6 +43,10 @@ uint8_t late_entries(uint8_t *motor);
 // Silences every motor at once, empties the queue and disables the drivers.
 void stop_all();
 
+// Silences the motors whose bit is set in mask (the caller checked they exist) at once and
+// drops their queued entries; the other motors and every driver's power are left as they are.
+void silence(uint8_t mask);
+
 // Applies a motor configuration (validated by the caller except for driver-specific modes).
 // Returns sc::kErrNone or sc::kErrConfig.
 uint8_t configure(const sc::ConfigBody &c);

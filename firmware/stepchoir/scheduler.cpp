@@ -359,21 +359,29 @@ void poll() {
   }
 }
 
-void silence_all() {
+void silence(uint8_t mask) {
+  mask &= (uint8_t)((1u << kMotors) - 1u);
   // Busy first (each an atomic sbi): no handler runs while the main loop does, and none enters
   // from here on; then the rest with interrupts on.
-  for (uint8_t i = 0; i < kMotors; ++i) kOps[i].busy();
+  for (uint8_t i = 0; i < kMotors; ++i)
+    if (mask & (1u << i)) kOps[i].busy();
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    g_sounding = 0;
-    GPIOR0 &= (uint8_t)~((1u << kMotors) - 1u);  // no visits
+    g_sounding &= (uint8_t)~mask;
+    GPIOR0 &= (uint8_t)~mask;  // no visits
   }
   for (uint8_t i = 0; i < kMotors; ++i) {
+    if (!(mask & (1u << i))) continue;
     if (g_motor[i].flags & kMove) g_motor[i].move_end = sc::kMoveEndStopped;
     g_motor[i].period_q8 = 0;
     g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike | kMove);
     g_motor[i].cmd = kCmdNone;
   }
-  g_queue.clear();  // the queue's entries with them
+  g_queue.drop(mask);  // their queued entries with them
+}
+
+void silence_all() {
+  silence((uint8_t)((1u << kMotors) - 1u));
+  g_queue.clear();
 }
 
 void set_period(uint8_t mi, uint32_t period_q8) {

@@ -69,6 +69,10 @@ void poll();
 // Called from: main loop. Silences every motor at once and empties the timed queue.
 void silence_all();
 
+// Called from: main loop (kMsgSilence). Silences the motors whose bit is set in mask at once
+// (a move among them ends, stopped) and drops their timed entries; the others play on.
+void silence(uint8_t mask);
+
 // Called from: main loop. Motor m plays period_q8 (ticks q8; sc::kPeriodSilent = silence) from
 // now on, keeping the phase of a sounding motor. The caller checked the range and woke the
 // driver.

@@ -43,6 +43,21 @@ struct TimedQueue {
     used = 0;
     take_idx = put_idx;
   }
+  // Drops the entries of the motors whose bit is set in mask (kMsgSilence); the others keep
+  // their order. At most cfg::kQueueSize moves of 9 bytes.
+  void drop(uint8_t mask) {
+    uint8_t from = take_idx, to = take_idx, kept = 0;
+    for (uint8_t n = used; n; --n) {
+      if (!(mask & (1u << slot[from].motor))) {
+        if (to != from) slot[to] = slot[from];
+        to = (uint8_t)(to + 1 == cfg::kQueueSize ? 0 : to + 1);
+        ++kept;
+      }
+      from = (uint8_t)(from + 1 == cfg::kQueueSize ? 0 : from + 1);
+    }
+    put_idx = to;
+    used = kept;
+  }
 };
 
 // Whether the main loop takes the queue's oldest entry now, `ahead` ticks before its time:

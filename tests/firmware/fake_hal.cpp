@@ -23,6 +23,11 @@ void stop_all() {
   for (auto &p : g_hal.period) p = 0;
   g_hal.queued = 0;
 }
+void silence(uint8_t mask) {
+  g_hal.calls.push_back({FakeHal::kSilence, mask, 0, 0});
+  for (size_t m = 0; m < g_hal.period.size(); ++m)
+    if (mask & (1u << m)) g_hal.period[m] = 0;
+}
 uint8_t configure(const sc::ConfigBody &c) {
   g_hal.configs.push_back(c);
   return c.microsteps == 32 && c.driver == sc::kDriverA4988 ? sc::kErrConfig : sc::kErrNone;

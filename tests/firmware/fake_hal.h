@@ -9,7 +9,7 @@
 #include "hal.h"
 
 struct FakeHal {
-  enum Kind { kSet, kQueued, kStop };
+  enum Kind { kSet, kQueued, kStop, kSilence };  // kSilence: motor holds the mask
   struct Call {
     Kind kind;
     uint8_t motor;

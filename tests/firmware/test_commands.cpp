@@ -101,6 +101,11 @@ TEST_CASE("firmware decodes every host-to-board spec vector and acts on it") {
       CHECK(b.speed_max == v.num("speed_max"));
       CHECK(b.accel == v.num("accel"));
       CHECK(g_hal.replies.empty());  // the reply comes when the move ends
+    } else if (v.kind == "silence") {
+      REQUIRE(g_hal.calls.size() == 1);
+      CHECK(g_hal.calls[0].kind == FakeHal::kSilence);
+      CHECK(g_hal.calls[0].motor == v.num("mask"));
+      CHECK(g_hal.replies.empty());
     } else if (v.kind == "set-position") {
       CHECK(g_hal.position.at(v.num("motor")) == static_cast<int32_t>(std::stol(v.str("position"))));
       CHECK(g_hal.replies.empty());

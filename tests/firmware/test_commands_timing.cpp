@@ -97,3 +97,27 @@ TEST_CASE("an entry the step ISR took after its time is answered with error late
   c.poll();  // once
   CHECK(g_hal.replies.size() == 1);
 }
+
+TEST_CASE("silence takes a mask of the board's motors - a bit past them or a wrong length is refused") {
+  auto &c = fresh();  // four motors
+  feed(c, wire({sc::kMsgSilence, 0x0A}));
+  REQUIRE(g_hal.calls.size() == 1);
+  CHECK(g_hal.calls[0].kind == FakeHal::kSilence);
+  CHECK(g_hal.calls[0].motor == 0x0A);
+  CHECK(g_hal.replies.empty());
+  g_hal.calls.clear();
+  const std::vector<std::pair<std::vector<uint8_t>, uint8_t>> refused = {
+      {{sc::kMsgSilence, 0x10}, sc::kErrMotor},
+      {{sc::kMsgSilence, 0x81}, sc::kErrMotor},
+      {{sc::kMsgSilence}, sc::kErrLength},
+      {{sc::kMsgSilence, 1, 0}, sc::kErrLength},
+  };
+  for (const auto &r : refused) {
+    g_hal.replies.clear();
+    feed(c, wire(r.first));
+    CHECK(g_hal.calls.empty());
+    REQUIRE(g_hal.replies.size() == 1);
+    CHECK(g_hal.replies[0] == std::vector<uint8_t>{sc::kMsgError, r.second, sc::kMsgSilence, 0});
+  }
+  CHECK(c.frames_bad() == refused.size());
+}

@@ -433,6 +433,34 @@ TEST_CASE("timed queue: a FIFO ring of kQueueSize entries that wraps - clear dro
   CHECK(q.used == 0);
 }
 
+TEST_CASE("timed queue: drop removes the masked motors' entries - the rest keep their order", "[motor]") {
+  for (uint8_t start = 0; start < cfg::kQueueSize; start += 7) {  // the ring's ends at varying places
+    INFO("start " << int(start));
+    TimedQueue q{};
+    q.take_idx = q.put_idx = start;
+    const uint8_t n = cfg::kQueueSize;
+    for (uint8_t i = 0; i < n; ++i) q.put((uint8_t)(i % 4), 256u * i, 100u * i);
+    q.drop(0x05);  // motors 0 and 2
+    CHECK(q.used == n / 2);
+    for (uint8_t i = 1; i < n; i += 2) {
+      REQUIRE(q.used > 0);
+      CHECK(V{q.front().motor, (int32_t)q.front().at} == V{i % 4, 100 * i});
+      q.pop();
+    }
+    CHECK(q.used == 0);
+    q.put(1, 256, 5), q.put(3, 512, 6);
+    q.drop(0x02);
+    CHECK(V{q.used, q.front().motor} == V{1, 3});
+    q.put(0, 768, 7);  // a put after a drop follows the kept entries
+    q.drop(0);
+    CHECK(V{q.used, q.front().motor} == V{2, 3});
+    q.pop();
+    CHECK(V{q.front().motor, (int32_t)q.front().at} == V{0, 7});
+    q.drop(0xFF);
+    CHECK(q.used == 0);
+  }
+}
+
 TEST_CASE("timed queue: taken kTakeTicks ahead - kStartLeadTicks if a strike is pending", "[motor]") {
   const int32_t T = cfg::kTakeTicks, S = cfg::kStartLeadTicks;
   struct Row { int32_t ahead; bool pending; bool take; };

@@ -146,6 +146,11 @@ TEST_CASE("host encoders produce the spec's payloads") {
       CHECK(back == v.payload);
     } else if (v.kind == "set-position") {
       CHECK(set_position_payload(uint8_t(v.num("motor")), int32_t(std::stol(v.str("position")))) == v.payload);
+    } else if (v.kind == "silence") {
+      std::vector<uint8_t> motors;
+      for (uint8_t m = 0; m < sc::kMaxMotors; ++m)
+        if (v.num("mask") & (1u << m)) motors.push_back(m);
+      CHECK(silence_payload(motors) == v.payload);
     } else if (v.kind == "at") {
       CHECK(sc::get_u32(&v.payload[1]) == v.num("ticks"));
       sc::PeriodEntry e{};

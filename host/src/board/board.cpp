@@ -100,6 +100,12 @@ std::vector<uint8_t> set_position_payload(uint8_t motor, int32_t position) {
   return p;
 }
 
+std::vector<uint8_t> silence_payload(const std::vector<uint8_t> &motors) {
+  uint8_t mask = 0;
+  for (uint8_t m : motors) mask = static_cast<uint8_t>(mask | (1u << m));
+  return {sc::kMsgSilence, mask};
+}
+
 void Board::send(const std::vector<uint8_t> &payload) {
   const auto f = frame(payload);
   if (!link_->write(f.data(), f.size())) throw std::runtime_error(link_->name() + ": write failed");

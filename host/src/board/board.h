@@ -65,6 +65,9 @@ std::vector<uint8_t> driver_act_payload(uint8_t motor, uint8_t action);
 std::vector<uint8_t> move_payload(const sc::MoveBody &b);
 std::vector<uint8_t> set_position_payload(uint8_t motor, int32_t position);
 
+// A kMsgSilence payload: these motors silent now, their timed entries dropped.
+std::vector<uint8_t> silence_payload(const std::vector<uint8_t> &motors);
+
 // Synchronous session with one board (used by the short commands: hello, tone, panic).
 // Called from: one thread. Blocks on I/O with the given timeouts.
 class Board {
