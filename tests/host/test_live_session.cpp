@@ -421,3 +421,29 @@ TEST_CASE("live: jam - a live note goes out ahead of song frames already waiting
   REQUIRE(live_seen);
   CHECK(song_before < 45);  // of 60: without the priority every one of them goes first
 }
+
+TEST_CASE("live: jam - a board attached again drops the song motors' timed entries before a song frame",
+          "[live]") {
+  FakeLink first, second;
+  const LiveBoard board{&first, 2, kF, {2, 3}};  // the keyboard plays motors 2 and 3
+  LiveSession s({board}, pool_config({board}, Policy::kPoly), kNoRefresh);
+  s.set_song_motors(0, 0x03);  // a song plays motors 0 and 1
+  s.start();
+  REQUIRE(s.detach_link(0));  // the board restarted: entries it holds are on its old clock
+  s.attach_link(0, &second);
+  std::vector<uint8_t> at{sc::kMsgAt, 0, 0, 0, 0};
+  const auto e = periods_payload({{0, 1000}});
+  at.insert(at.end(), e.begin(), e.end());
+  const auto wire = frame(at);
+  REQUIRE(s.send_song_frame(0, wire.data(), wire.size()));
+  REQUIRE(eventually([&] {
+    const auto f = second.frames();
+    return std::any_of(f.begin(), f.end(), [](const auto &p) { return p[0] == sc::kMsgAt; });
+  }));
+  s.stop();
+  const auto frames = second.frames();
+  REQUIRE(frames.size() >= 3);
+  CHECK(frames[0][0] == sc::kMsgWatchdog);
+  CHECK(frames[1] == std::vector<uint8_t>{sc::kMsgSilence, 0x03});
+  CHECK(std::count_if(frames.begin(), frames.end(), [](const auto &p) { return p[0] == sc::kMsgSilence; }) == 1);
+}

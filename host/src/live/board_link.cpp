@@ -283,6 +283,14 @@ void BoardLink::writer_loop() {
       uint8_t wd[3] = {sc::kMsgWatchdog, 0, 0};
       sc::put_u16(&wd[1], sc::kWatchdogDefaultMs);
       send_payload(link, wd, sizeof wd);
+      // A song's entries that reached it before the detach were timed on the old board's
+      // clock: in the new board's queue they would wait for times that mean nothing there and
+      // hold up the song's entries behind them. Dropped; the song's player restores what
+      // sounds once it has synced again.
+      if (const uint8_t song = song_motors_.load(std::memory_order_acquire)) {
+        const uint8_t silence[2] = {sc::kMsgSilence, song};
+        send_payload(link, silence, sizeof silence);
+      }
       coalescer_.board_restarted();
     }
     if (Clock::now() - last_refresh >= std::chrono::milliseconds(refresh_ms_)) {

@@ -193,19 +193,12 @@ bool Player::send_at(double ticks, const std::vector<sc::PeriodEntry> &entries) 
   return true;
 }
 
-// Called from: run, at the end, on pause and on stop. Every motor of the song silent now;
-// with the board to itself, the board's queue emptied and the drivers off (stop-all). Sharing
-// it (jam), stop-all would silence the keyboard's motors too: a timed silence after the last
-// entry still queued follows instead (those play out first, within the lead).
+// Called from: run, at the end, on pause and on stop. Every motor of the song silent now and
+// its queued entries dropped: with the board to itself, by stop-all (the drivers off as well);
+// sharing it (jam, a setlist beside live), by silence for the song's motors, since stop-all
+// would silence the keyboard's motors too.
 void Player::silence() {
-  std::vector<sc::PeriodEntry> entries;
-  for (uint8_t m : opt_.motors) entries.push_back({m, sc::kPeriodSilent});
-  send_payload(periods_payload(entries));
-  if (opt_.exclusive) {
-    send_payload({sc::kMsgStopAll});
-  } else if (!queued_ticks_.empty()) {
-    send_at(queued_ticks_.back() + 1, entries);
-  }
+  send_payload(opt_.exclusive ? std::vector<uint8_t>{sc::kMsgStopAll} : silence_payload(opt_.motors));
   queued_ticks_.clear();
 }
 

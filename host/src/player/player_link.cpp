@@ -222,6 +222,10 @@ bool Player::reopen(const std::atomic<bool> &stop) {
   if (heard_us_) heard_us_ = last_read_us_;
   stats_.reconnecting = false;
   decoder_ = sc::FrameDecoder();
+  // The entries sent on the old board's clock since the restart, before the player saw it,
+  // would wait in the queue for times that mean nothing on the new clock, holding up the
+  // song's entries behind them; one of them past its time would sound at once.
+  send_payload(silence_payload(opt_.motors));
   send_payload(watchdog_payload(sc::kWatchdogDefaultMs));
   // The same board back: the same crystal. The rate measured so far is the new fit's prior,
   // so the notes after the reconnect are in tune before the new samples span a second.
