@@ -226,7 +226,8 @@ int main(int argc, char **argv) {
       << sc::kBaud << " baud, 8N1) and DTR, then bulk OUT packets to endpoint 4 and bulk IN polls of endpoint 3. "
          "Every time is in the chip's cycles, exact; simavr does not model the USB bus itself, so an OUT packet "
          "lands in the endpoint at the instant the bench hands it over (on a real bus, after its transaction: "
-         "about 15 us into the frame for a note). USART1's data register is modelled as the chip has it "
+      << fmt((model.bus_ns + model.bus_byte_ns * note_bytes) / 1e3, 2)
+      << " us into the frame for a note, as the model counts it). USART1's data register is modelled as the chip has it "
          "(empty once its byte enters the shift register; simavr 1.6 lacks the double buffer), and each "
          "byte's time is its start bit.\n\n";
   out << "## Host -> board: " << h2b.packets << " note frames (" << note_bytes << " bytes), each at a random phase\n\n"
@@ -261,15 +262,17 @@ int main(int argc, char **argv) {
       << "| note frame, first -> last byte | " << fmt(model_pace * double(note_bytes - 1) / kCyclesPerUs, 2)
       << " us | p50 " << fmt(spans.p50 / kCyclesPerUs, 2) << " us |\n"
       << "| OUT packet -> first byte | " << fmt(model.first_byte_min_ns / 1e3, 2) << "-"
-      << fmt(model.first_byte_max_ns / 1e3, 2) << " us after the frame's start | " << fmt(first.min / kCyclesPerUs, 2)
-      << "-" << fmt(first.max / kCyclesPerUs, 2) << " us |\n"
+      << fmt(model.first_byte_max_ns / 1e3, 2) << " us (a note's packet lands "
+      << fmt((model.bus_ns + model.bus_byte_ns * note_bytes) / 1e3, 2) << " us into its frame) | "
+      << fmt(first.min / kCyclesPerUs, 2) << "-" << fmt(first.max / kCyclesPerUs, 2) << " us |\n"
       << "| board -> host flush period | " << model_period << " cycles (" << fmt(model.flush_period_ns / 1e6, 3)
       << " ms) | every release within " << fmt(phases.max - phases.min, 0) << " cycles of one place in it, over "
       << fmt(periods, 0) << " periods |\n"
-      << "| board -> host wait, p50 / max | uniform over the period | " << fmt(waits.p50 / kCyclesPerUs / 1000, 3)
+      << "| board -> host wait, min / p50 / max | the period's rest, then " << fmt(model.release_delay_ns / 1e3, 2)
+      << " us | " << fmt(waits.min / kCyclesPerUs / 1000, 4) << " / " << fmt(waits.p50 / kCyclesPerUs / 1000, 3)
       << " / " << fmt(waits.max / kCyclesPerUs / 1000, 3) << " ms |\n"
-      << "| released at once from | " << model.packet_bytes << " bytes waiting | p50 "
-      << fmt(bursts.p50 / kCyclesPerUs, 1) << " us after that byte |\n";
+      << "| released without the timer | " << fmt(model.packet_delay_ns / 1e3, 1) << " us after the byte that makes "
+      << model.packet_bytes << " wait | p50 " << fmt(bursts.p50 / kCyclesPerUs, 1) << " us after that byte |\n";
   const std::string path = out_dir + "/" + name + ".md";
   std::ofstream file(path);
   file << out.str();

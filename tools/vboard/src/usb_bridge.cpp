@@ -1,6 +1,8 @@
 // usb_bridge.cpp: the USB-serial bridge models (see usb_bridge.h).
 #include "usb_bridge.h"
 
+#include <algorithm>
+
 namespace vboard {
 
 bool parse_link_model(const std::string &name, LinkModel &model) {
@@ -22,23 +24,46 @@ const char *link_model_name(LinkModel model) {
   return "?";
 }
 
+namespace {
+
+// Full-speed USB, 12 Mbit/s: a host write lands in the device's OUT endpoint after the frame's
+// start-of-frame packet, the OUT token and the data packet's sync, PID, CRC and end (35 bit
+// times each) and two inter-packet gaps (7.5 each): 120 bit times, 10 us; then 8 bit times
+// (667 ns) a byte. Bit stuffing, at most one bit in seven, is left out.
+constexpr uint64_t kBusNs = 10000;
+constexpr uint64_t kBusByteNs = 667;
+constexpr size_t kPacketBytes = 64;  // a full-speed bulk packet's most
+
+constexpr uint64_t cycles_16mhz_ns(uint64_t cycles) { return cycles * 1000000000ull / 16000000; }
+
+}  // namespace
+
 BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
   BridgeTiming t;
+  if (model != LinkModel::kIdeal) {
+    t.bus_ns = kBusNs;
+    t.bus_byte_ns = kBusByteNs;
+  }
   switch (model) {
     case LinkModel::kIdeal:
       t.usb_frame_ns = 0;
       break;
     case LinkModel::k16u2:
       // Timer0 at 16 MHz / 256, overflowing every 256 counts; the buffer goes when more than
-      // BUFFER_NEARLY_FULL (96) bytes wait.
-      t.flush_period_ns = 256ull * 256 * 1000000000ull / 16000000;
+      // BUFFER_NEARLY_FULL (96) bytes wait. The main loop then copies the bytes into the IN
+      // endpoint: a reply reaches it 968 cycles after the overflow, and past 96 bytes the
+      // first go 6,926 cycles (p50) after the byte that made 97
+      // (bench/results/usb-16u2-firmware.md).
+      t.flush_period_ns = cycles_16mhz_ns(256 * 256);
+      t.release_delay_ns = cycles_16mhz_ns(968);
       t.packet_bytes = 97;
-      // Host bytes: the main loop reads the OUT endpoint one byte a pass, 245 cycles at 16 MHz;
-      // the packet's first byte goes out 121-270 cycles after the packet lands, as the loop
-      // comes round (bench/results/usb-16u2-firmware.md).
-      t.first_byte_min_ns = 121ull * 1000000000ull / 16000000;
-      t.first_byte_max_ns = 270ull * 1000000000ull / 16000000;
-      t.host_byte_ns = 245ull * 1000000000ull / 16000000;
+      t.packet_delay_ns = cycles_16mhz_ns(6926);
+      // Host bytes: the main loop reads the OUT endpoint one byte a pass, 245 cycles; the
+      // packet's first byte goes out 121-270 cycles after the packet lands, as the loop comes
+      // round.
+      t.first_byte_min_ns = cycles_16mhz_ns(121);
+      t.first_byte_max_ns = cycles_16mhz_ns(270);
+      t.host_byte_ns = cycles_16mhz_ns(245);
       break;
     case LinkModel::kFtdi:
       t.flush_period_ns = uint64_t(ftdi_latency_ms) * 1000000;
@@ -63,9 +88,10 @@ UsbBridge::UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame
 
 void UsbBridge::from_host(const uint8_t *bytes, size_t count, uint64_t now_ns) {
   uint64_t at = now_ns;
-  if (timing_.usb_frame_ns) {  // the start of the next frame after now
+  if (timing_.usb_frame_ns) {  // the next frame after now, its transaction, then the bridge
     const uint64_t since = now_ns >= frame_phase_ns_ ? now_ns - frame_phase_ns_ : 0;
     at = frame_phase_ns_ + (since / timing_.usb_frame_ns + 1) * timing_.usb_frame_ns;
+    at += timing_.bus_ns + timing_.bus_byte_ns * std::min<size_t>(count, kPacketBytes);
     if (timing_.first_byte_max_ns > timing_.first_byte_min_ns)
       at += timing_.first_byte_min_ns + draw_() % (timing_.first_byte_max_ns - timing_.first_byte_min_ns + 1);
     else
@@ -86,9 +112,10 @@ void UsbBridge::from_board(uint8_t byte, uint64_t now_ns) {
     released_.push_back(byte);
     return;
   }
+  expire(now_ns);  // an expiry before this byte came takes the bytes before it, not this one
   from_board_.push_back({now_ns, byte});
   if (timing_.packet_bytes && from_board_.size() >= timing_.packet_bytes) {
-    release_before(now_ns + 1, released_);
+    release_before(now_ns + 1, now_ns + timing_.packet_delay_ns);
     if (timing_.restart_on_packet) next_flush_ns_ = now_ns + timing_.flush_period_ns;
   }
 }
@@ -97,25 +124,36 @@ void UsbBridge::to_host(uint64_t now_ns, std::vector<uint8_t> &out) {
   out.insert(out.end(), released_.begin(), released_.end());
   released_.clear();
   if (!timing_.flush_period_ns) return;
-  while (next_flush_ns_ <= now_ns) {
-    release_before(next_flush_ns_, out);
-    next_flush_ns_ += timing_.flush_period_ns;
+  expire(now_ns);
+  while (!leaving_.empty() && leaving_.front().at_ns <= now_ns) {
+    out.push_back(leaving_.front().byte);
+    leaving_.pop_front();
   }
 }
 
 uint64_t UsbBridge::next_host_pass_ns() const {
   if (!released_.empty()) return 0;
-  if (from_board_.empty()) return UINT64_MAX;
-  // The first timer expiry after the oldest held byte came (to_host moves next_flush_ns_ on
-  // only when it is called).
+  uint64_t next = leaving_.empty() ? UINT64_MAX : leaving_.front().at_ns;
+  if (from_board_.empty()) return next;
+  // The first timer expiry after the oldest held byte came (expire moves next_flush_ns_ on
+  // only when it is called), then the copy into the endpoint.
   const uint64_t came = from_board_.front().at_ns;
-  if (next_flush_ns_ > came) return next_flush_ns_;
-  return next_flush_ns_ + ((came - next_flush_ns_) / timing_.flush_period_ns + 1) * timing_.flush_period_ns;
+  uint64_t expiry = next_flush_ns_;
+  if (expiry <= came) expiry += ((came - expiry) / timing_.flush_period_ns + 1) * timing_.flush_period_ns;
+  return std::min(next, expiry + timing_.release_delay_ns);
 }
 
-void UsbBridge::release_before(uint64_t t_ns, std::vector<uint8_t> &out) {
+void UsbBridge::expire(uint64_t now_ns) {
+  while (next_flush_ns_ <= now_ns) {
+    release_before(next_flush_ns_, next_flush_ns_ + timing_.release_delay_ns);
+    next_flush_ns_ += timing_.flush_period_ns;
+  }
+}
+
+void UsbBridge::release_before(uint64_t t_ns, uint64_t leave_ns) {
+  if (!leaving_.empty()) leave_ns = std::max(leave_ns, leaving_.back().at_ns);  // bytes keep their order
   while (!from_board_.empty() && from_board_.front().at_ns < t_ns) {
-    out.push_back(from_board_.front().byte);
+    leaving_.push_back({leave_ns, from_board_.front().byte});
     from_board_.pop_front();
   }
 }

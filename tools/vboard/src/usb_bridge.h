@@ -2,18 +2,19 @@
 // one: when bytes written by the host reach the UART, and when bytes the board sends reach the
 // host. Pure (no simavr, no pty): time is the host's, in ns; unit-tested.
 //
-// Models (sources: docs/usb-bridges.md):
+// Models (sources: docs/usb-bridges.md). Every USB model's host write lands in the bridge's
+// OUT endpoint when its full-speed transaction ends: the next 1 ms frame's start-of-frame packet,
+// the OUT token and the data packet (14.8 us for an 8-byte note frame).
 //   ideal  bytes pass at once both ways (a pty, a native UART).
-//   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): host -> board in
-//          the next 1 ms USB frame, the first byte 7.6-16.9 us into it (the 16U2's main loop
-//          coming round to the endpoint), then a byte a pass of that loop (15.3 us);
-//          board -> host when the 16U2's Timer0 overflows (every 4.096 ms, free-running) or as
-//          soon as more than 96 bytes wait.
-//   ftdi   FT232R boards: host -> board in the next 1 ms frame; board -> host when the
-//          latency timer expires (16 ms by default, restarted by every packet sent) or a
-//          62-byte packet is full.
-//   ch340  CH340 clones: host -> board in the next 1 ms frame; board -> host in the next 1 ms
-//          frame, or at once when a 32-byte packet is full.
+//   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): the first host
+//          byte 7.6-16.9 us after the packet lands (the 16U2's main loop coming round to the
+//          endpoint), then a byte a pass of that loop (15.3 us); board -> host 60.5 us after
+//          the 16U2's Timer0 overflows (every 4.096 ms, free-running), or 432.9 us after the
+//          byte that makes more than 96 wait.
+//   ftdi   FT232R boards: board -> host when the latency timer expires (16 ms by default,
+//          restarted by every packet sent) or a 62-byte packet is full.
+//   ch340  CH340 clones: board -> host in the next 1 ms frame, or at once when a 32-byte
+//          packet is full.
 #ifndef STEPCHOIR_VBOARD_USB_BRIDGE_H
 #define STEPCHOIR_VBOARD_USB_BRIDGE_H
 
@@ -34,14 +35,18 @@ const char *link_model_name(LinkModel model);
 
 // The bridge's figures (ns, bytes); what link_model_timing gives per model.
 struct BridgeTiming {
-  uint64_t usb_frame_ns = 1000000;  // host -> board: a write goes out at the next frame start
-  uint64_t first_byte_min_ns = 0;   // ... its first byte reaches the UART this long after the
-  uint64_t first_byte_max_ns = 0;   // frame's start, drawn uniformly from [min, max] per write
+  uint64_t usb_frame_ns = 1000000;  // host -> board: a write goes out in the next frame
+  uint64_t bus_ns = 0;              // ... and lands this long after the frame's start, plus
+  uint64_t bus_byte_ns = 0;         // this per byte of its first (64-byte) packet
+  uint64_t first_byte_min_ns = 0;   // ... its first byte reaches the UART this long after it
+  uint64_t first_byte_max_ns = 0;   // lands, drawn uniformly from [min, max] per write
   uint64_t host_byte_ns = 0;        // ... and the bridge hands the UART a byte at most this often
                                     // (0: back to back at the line's rate); AvrAdapter paces it
   uint64_t flush_period_ns = 0;     // board -> host: waiting bytes go at each period's end (0: at once)
+  uint64_t release_delay_ns = 0;    // ... that long after the period's end
   bool restart_on_packet = false;   // a full packet restarts the period (FTDI's latency timer)
-  size_t packet_bytes = 0;          // ... and a full packet goes at once (0: no such rule)
+  size_t packet_bytes = 0;          // ... and a full packet goes (0: no such rule)
+  uint64_t packet_delay_ns = 0;     // ... this long after the byte that filled it
 };
 // ftdi_latency_ms: the FT232R's latency timer (1-255; 16 by default, 1 with low_latency).
 BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms = 16);
@@ -72,9 +77,9 @@ class UsbBridge {
   // host by now_ns, in order.
   void to_host(uint64_t now_ns, std::vector<uint8_t> &out);
   // Board bytes the bridge still holds.
-  size_t board_bytes_waiting() const { return from_board_.size(); }
+  size_t board_bytes_waiting() const { return from_board_.size() + leaving_.size(); }
   // When the bridge next passes board bytes to the host (ns, host time): 0 when some are passed
-  // already (a full packet, or no batching), UINT64_MAX when it holds none.
+  // already (no batching), UINT64_MAX when it holds none.
   uint64_t next_host_pass_ns() const;
 
   LinkModel model() const { return model_; }
@@ -85,8 +90,11 @@ class UsbBridge {
     uint64_t at_ns;  // host -> board: when it reaches the UART; board -> host: when it came
     uint8_t byte;
   };
-  // Releases every held board byte that came before t_ns into out.
-  void release_before(uint64_t t_ns, std::vector<uint8_t> &out);
+  // Every held board byte that came before t_ns leaves at leave_ns (or after the bytes before
+  // it): into leaving_.
+  void release_before(uint64_t t_ns, uint64_t leave_ns);
+  // The timer's expiries up to now_ns: their bytes into leaving_.
+  void expire(uint64_t now_ns);
 
   LinkModel model_;
   BridgeTiming timing_;
@@ -94,8 +102,9 @@ class UsbBridge {
   uint64_t next_flush_ns_;  // the bridge's next timer expiry
   std::minstd_rand draw_;
   std::deque<Timed> to_board_;
-  std::deque<Timed> from_board_;
-  std::vector<uint8_t> released_;  // passed at once (a full packet), not yet handed to to_host
+  std::deque<Timed> from_board_;   // board -> host: held, at_ns when each came
+  std::deque<Timed> leaving_;      // ... released, at_ns when each reaches the host
+  std::vector<uint8_t> released_;  // passed at once (no batching), not yet handed to to_host
 };
 
 }  // namespace vboard

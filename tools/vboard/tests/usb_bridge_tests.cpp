@@ -13,6 +13,12 @@ namespace {
 
 const uint64_t kMs = 1000000;
 
+// When a write of n bytes lands in a USB bridge's OUT endpoint, after its frame's start.
+uint64_t bus(size_t n) {
+  const BridgeTiming t = link_model_timing(LinkModel::k16u2);
+  return t.bus_ns + t.bus_byte_ns * n;
+}
+
 UsbBridge make(LinkModel m, uint64_t frame_phase = 0, uint64_t flush_phase = 0, unsigned ftdi_ms = 16) {
   return UsbBridge(m, link_model_timing(m, ftdi_ms), frame_phase, flush_phase);
 }
@@ -53,20 +59,26 @@ TEST_CASE("usb bridge: a host write reaches the board in the next 1 ms frame, wh
   const BridgeTiming t = link_model_timing(LinkModel::k16u2);
   REQUIRE(t.first_byte_min_ns > 7000);  // 121 and 270 cycles of 16 MHz: bench/results/usb-16u2-firmware.md
   REQUIRE(t.first_byte_max_ns < 17000);
+  CHECK(bus(8) == 15336);  // a note frame's transaction: 120 bit times, then 8 a byte, at 12 Mbit/s
   UsbBridge b = make(LinkModel::k16u2, 300000);
   const uint8_t byte = 0x42;
   b.from_host(&byte, 1, 2 * kMs + 100000);  // written 0.1 ms into a frame that began at 1.3 ms
-  CHECK_FALSE(b.board_byte_ready(2 * kMs + 300000 + t.first_byte_min_ns - 1));
-  CHECK(b.board_byte_ready(2 * kMs + 300000 + t.first_byte_max_ns));
+  CHECK_FALSE(b.board_byte_ready(2 * kMs + 300000 + bus(1) + t.first_byte_min_ns - 1));
+  CHECK(b.board_byte_ready(2 * kMs + 300000 + bus(1) + t.first_byte_max_ns));
   b.board_byte_pop();
   b.from_host(&byte, 1, 2 * kMs + 300000);  // written on a frame's first ns: the next one
-  CHECK_FALSE(b.board_byte_ready(3 * kMs + 300000 + t.first_byte_min_ns - 1));
-  CHECK(b.board_byte_ready(3 * kMs + 300000 + t.first_byte_max_ns));
-  // The ideal link's writes wait for no frame; an FTDI or CH340 bridge's wait for one only.
+  CHECK_FALSE(b.board_byte_ready(3 * kMs + 300000 + bus(1) + t.first_byte_min_ns - 1));
+  CHECK(b.board_byte_ready(3 * kMs + 300000 + bus(1) + t.first_byte_max_ns));
+  // The ideal link's writes wait for no frame; an FTDI or CH340 bridge's for one and its
+  // transaction only, longer for a longer packet (64 bytes at most).
   UsbBridge ftdi = make(LinkModel::kFtdi, 300000);
   ftdi.from_host(&byte, 1, 2 * kMs + 100000);
-  CHECK_FALSE(ftdi.board_byte_ready(2 * kMs + 299999));
-  CHECK(ftdi.board_byte_ready(2 * kMs + 300000));
+  CHECK_FALSE(ftdi.board_byte_ready(2 * kMs + 300000 + bus(1) - 1));
+  CHECK(ftdi.board_byte_ready(2 * kMs + 300000 + bus(1)));
+  ftdi.board_byte_pop();
+  const std::vector<uint8_t> many(100, 0x42);
+  ftdi.from_host(many.data(), many.size(), 3 * kMs + 100000);
+  CHECK(ftdi.next_board_byte_ns() == 3 * kMs + 300000 + bus(64));
 }
 
 TEST_CASE("usb bridge: the 16U2's first byte falls anywhere in its range, and host bytes keep their order") {
@@ -76,7 +88,7 @@ TEST_CASE("usb bridge: the 16U2's first byte falls anywhere in its range, and ho
   for (uint64_t frame = 1; frame <= 400; ++frame) {
     const uint8_t byte = uint8_t(frame);
     b.from_host(&byte, 1, frame * kMs - 500000);
-    const uint64_t wait = b.next_board_byte_ns() - frame * kMs;
+    const uint64_t wait = b.next_board_byte_ns() - frame * kMs - bus(1);
     earliest = std::min(earliest, wait);
     latest = std::max(latest, wait);
     b.board_byte_pop();
@@ -104,24 +116,30 @@ TEST_CASE("usb bridge: each model says when it next passes board bytes to the ho
   std::vector<uint8_t> out;
   ideal.to_host(7000, out);
   CHECK(ideal.next_host_pass_ns() == UINT64_MAX);
+  out.clear();
   UsbBridge u = make(LinkModel::k16u2, 0, 1000000);
   CHECK(u.next_host_pass_ns() == UINT64_MAX);
   u.from_board(0x22, 1200000);
-  CHECK(u.next_host_pass_ns() == 5096000);  // the next Timer0 overflow
+  CHECK(u.next_host_pass_ns() == 5156500);  // the next Timer0 overflow, and 968 cycles' copy
   u.to_host(3000000, out);                  // a look in between passes nothing
-  CHECK(u.next_host_pass_ns() == 5096000);
-  u.to_host(5096000, out);
+  CHECK(u.next_host_pass_ns() == 5156500);
+  u.to_host(5096000, out);  // the overflow: on its way
+  CHECK(out.empty());
+  CHECK(u.next_host_pass_ns() == 5156500);
+  u.to_host(5156500, out);
+  CHECK(out.size() == 1);
   CHECK(u.next_host_pass_ns() == UINT64_MAX);
-  for (int i = 0; i < 97; ++i) u.from_board(uint8_t(i), 6000000);  // more than 96 wait: at once
-  CHECK(u.next_host_pass_ns() == 0);
+  for (int i = 0; i < 97; ++i) u.from_board(uint8_t(i), 6000000);  // more than 96 wait
+  CHECK(u.next_host_pass_ns() == 6432875);
 }
 
 TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows") {
   UsbBridge b = make(LinkModel::k16u2, 0, 1000000);
-  // Overflows at 1.0, 5.096, 9.192 ms ...: a byte sent at 1.2 ms waits for 5.096 ms.
+  // Overflows at 1.0, 5.096, 9.192 ms ...: a byte sent at 1.2 ms waits for 5.096 ms, then
+  // the 16U2's copy into its endpoint (60.5 us).
   const uint64_t t = arrival(b, 1200000);
-  CHECK(t >= 5096000);
-  CHECK(t < 5096000 + 20000);
+  CHECK(t >= 5156500);
+  CHECK(t < 5156500 + 20000);
   // Over many bytes the wait spreads over the whole period, never longer.
   uint64_t longest = 0, shortest = UINT64_MAX;
   uint64_t sent = 10 * kMs;
@@ -132,22 +150,40 @@ TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows
     longest = std::max(longest, wait);
     shortest = std::min(shortest, wait);
   }
-  CHECK(longest <= 4096000 + 20000);
-  CHECK(longest > 3800000);
-  CHECK(shortest < 300000);
+  CHECK(longest <= 4156500 + 20000);
+  CHECK(longest > 3860000);
+  CHECK(shortest < 360000);
+  CHECK(shortest >= 60500);  // never sooner than the copy
 }
 
-TEST_CASE("usb bridge: 16u2 sends at once when more than 96 bytes wait") {
+TEST_CASE("usb bridge: 16u2 sends 433 us after more than 96 bytes wait, and bytes keep their order") {
   UsbBridge b = make(LinkModel::k16u2, 0, 0);
   std::vector<uint8_t> out;
   for (int i = 0; i < 96; ++i) b.from_board(uint8_t(i), 100000 + uint64_t(i) * 10000);
   b.to_host(1100000, out);
   CHECK(out.empty());  // 96 wait for the overflow at 4.096 ms
   b.from_board(96, 1100000);
-  b.to_host(1100000, out);
+  b.to_host(1100000 + 432874, out);
+  CHECK(out.empty());  // the 16U2 copies them into its endpoint first
+  b.from_board(97, 1200000);  // came after: the overflow's
+  b.to_host(1100000 + 432875, out);
   REQUIRE(out.size() == 97);
   for (int i = 0; i < 97; ++i) CHECK(out[size_t(i)] == uint8_t(i));
+  CHECK(b.board_bytes_waiting() == 1);
+  b.to_host(4096000 + 60499, out);
+  CHECK(out.size() == 97);
+  b.to_host(4096000 + 60500, out);
+  CHECK(out.size() == 98);
   CHECK(b.board_bytes_waiting() == 0);
+  // An overflow while a burst is on its way: its bytes follow the burst's, never before.
+  for (int i = 0; i < 97; ++i) b.from_board(uint8_t(i), 8192000 - 1000);
+  b.from_board(200, 8192000 - 500);
+  out.clear();
+  b.to_host(8192000 + 60500, out);
+  CHECK(out.empty());
+  b.to_host(8192000 - 1000 + 432875, out);
+  REQUIRE(out.size() == 98);
+  CHECK(out.back() == 200);
 }
 
 TEST_CASE("usb bridge: ftdi waits for its latency timer or a full 62-byte packet") {
@@ -184,15 +220,15 @@ TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, before or
   // Bytes read at wall 2.25 ms arrived at 2.25 ms, wherever the simulation stands.
   CHECK(host_arrival_ns(pacer, 2250000) == 2250000);
 
-  // An FTDI bridge (a frame's bytes at its start) with frames starting at 0.3 ms: the byte
-  // written at 2.25 ms goes in the 2.3 ms frame, as on a real board, while the simulation (at
-  // 2.29 ms) has not reached that frame.
+  // An FTDI bridge (a frame's bytes once its transaction ends) with frames starting at 0.3 ms:
+  // the byte written at 2.25 ms goes in the 2.3 ms frame, as on a real board, while the
+  // simulation (at 2.29 ms) has not reached that frame.
   UsbBridge b = make(LinkModel::kFtdi, 300000);
   const uint8_t byte = 0x42;
   b.from_host(&byte, 1, host_arrival_ns(pacer, 2250000));
-  CHECK(b.next_board_byte_ns() == 2300000);
-  CHECK_FALSE(b.board_byte_ready(2299999));
-  CHECK(b.board_byte_ready(2300000));
+  CHECK(b.next_board_byte_ns() == 2300000 + bus(1));
+  CHECK_FALSE(b.board_byte_ready(2300000 + bus(1) - 1));
+  CHECK(b.board_byte_ready(2300000 + bus(1)));
   b.board_byte_pop();
   CHECK(b.next_board_byte_ns() == UINT64_MAX);
   // The simulation at 2.45 ms: the frame's start lies inside its lead, so the board takes the
@@ -203,8 +239,8 @@ TEST_CASE("usb bridge: host bytes are stamped with their wall arrival, before or
   // The simulation behind, at 2.1 ms: read at wall 2.6 ms, the byte goes in the 3.3 ms frame;
   // stamped with the simulation's now it would go in the 2.3 ms one, before it was written.
   b.from_host(&byte, 1, host_arrival_ns(pacer, 2600000));
-  CHECK_FALSE(b.board_byte_ready(3299999));
-  CHECK(b.board_byte_ready(3300000));
+  CHECK_FALSE(b.board_byte_ready(3300000 + bus(1) - 1));
+  CHECK(b.board_byte_ready(3300000 + bus(1)));
   b.board_byte_pop();
   // The ideal link holds a byte that arrived after the simulation's now until then.
   UsbBridge ideal = make(LinkModel::kIdeal, 0);
