@@ -87,10 +87,11 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
        link_model == "ideal" ? "none on a native UART; here the virtual board's lead on the wall clock "
                                "(docs/decisions/020-vboard-pacing-catch-up.md)"
                              : link_model == "16u2"
-                                   ? "the next 1 ms USB frame and up to 17 us for the 16U2's loop to reach the packet "
-                                     "(bench/results/usb-16u2-firmware.md), then the virtual board's lead where the frame "
-                                     "starts inside it"
-                                   : "the next 1 ms USB frame, then the virtual board's lead where the frame starts inside it"},
+                                   ? "the next 1 ms USB frame, its bus transaction (15 us) and up to 17 us for the "
+                                     "16U2's loop to reach the packet (docs/usb-bridges.md), then the virtual board's "
+                                     "lead where the frame starts inside it"
+                                   : "the next 1 ms USB frame and its bus transaction (15 us), then the virtual board's "
+                                     "lead where the frame starts inside it"},
       {"wire", "first byte -> last byte at the UART", [](const NoteParts &p) { return p.wire; },
        std::to_string(frame_bytes - 1) + " bytes after the first: " +
            std::to_string(static_cast<int>(std::lround(wire_us * (frame_bytes - 1) / frame_bytes))) +
