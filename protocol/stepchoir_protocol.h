@@ -221,7 +221,20 @@ struct __attribute__((packed)) CapsBody {
   uint32_t f_cpu_hz;
   uint8_t queue_size;        // timestamped entries the board can hold
   uint8_t endstops[5];       // per motor: kEndstopMin | kEndstopMax | kEndstopShared
+  uint8_t flags;             // kCapsAnnounced
 };
+static_assert(sizeof(CapsBody) == 13, "caps as PROTOCOL.md shows it");
+
+// CapsBody::flags bit 0: the board sent these capabilities unasked as it started (power-up,
+// its reset button, a brown-out); clear in a hello's answer.
+static const uint8_t kCapsAnnounced = 0x01;
+
+// Whether a kMsgCaps payload (type byte included) is a board's announcement as it started:
+// protocol version 3 on; a board of an older version never says so.
+inline bool caps_announced(const uint8_t *p, uint8_t len) {
+  return len >= 1 + sizeof(CapsBody) && p[0] == kMsgCaps && p[1] >= 3 &&
+         (p[1 + offsetof(CapsBody, flags)] & kCapsAnnounced);
+}
 
 struct __attribute__((packed)) StatusHead {
   uint32_t frames_ok;

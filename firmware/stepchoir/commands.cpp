@@ -155,7 +155,7 @@ uint8_t Commands::handle(const uint8_t *p, uint8_t len) {
     switch (type) {
       case kMsgHello:
         if (n != 0) { rc = kErrLength; break; }
-        reply_caps();
+        reply_caps(0);
         break;
       case kMsgConfig:
         rc = handle_config(body, n);
@@ -288,7 +288,7 @@ void Commands::reply_id() {
   hal::send(buf, sizeof buf);
 }
 
-void Commands::reply_caps() {
+void Commands::reply_caps(uint8_t flags) {
   uint8_t buf[kMaxPayload];
   buf[0] = kMsgCaps;
   CapsBody c;
@@ -298,6 +298,7 @@ void Commands::reply_caps() {
   c.f_cpu_hz = F_CPU;
   c.queue_size = cfg::kQueueSize;
   for (uint8_t m = 0; m < c.motor_count && m < sizeof c.endstops; ++m) c.endstops[m] = hal::endstops(m);
+  c.flags = flags;
   memcpy(buf + 1, &c, sizeof c);
   uint8_t n = (uint8_t)(1 + sizeof c);
   for (const char *s = hal::board_name(); *s && n < kMaxPayload; ++s) buf[n++] = (uint8_t)*s;

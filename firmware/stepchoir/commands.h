@@ -24,7 +24,7 @@ class Commands {
 
   // Called from: setup(), last. Sends the capabilities unasked: a host that opened the port
   // (which resets an Uno or a Mega) waits for them rather than send into the bootloader.
-  void announce() { reply_caps(); }
+  void announce() { reply_caps(sc::kCapsAnnounced); }
 
   // Called from: main loop (take_bytes in stepchoir.ino; tests, fuzzing), for each byte
   // received. Decodes frames and runs their handlers. Inlined: a byte costs about 60 cycles
@@ -64,7 +64,7 @@ class Commands {
   uint8_t handle_set_position(const uint8_t *p, uint8_t len);
   void reply_id();
   uint8_t check_entry(const sc::PeriodEntry &e) const;
-  void reply_caps();
+  void reply_caps(uint8_t flags);  // flags: CapsBody::flags
   void reply_status();
   void reply_clock(uint8_t seq);
   void reply_error(uint8_t code, uint8_t type, uint8_t detail);

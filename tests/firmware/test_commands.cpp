@@ -5,6 +5,7 @@
 // move commands: test_commands_motors.cpp.
 #include <catch2/catch.hpp>
 
+#include <cstddef>
 #include <cstring>
 #include <random>
 
@@ -139,11 +140,23 @@ TEST_CASE("the board id is kept in EEPROM - none, erased and a bad length are re
   CHECK(g_hal.eeprom_writes == 1);
 }
 
-TEST_CASE("the caps reply matches the spec's caps vector") {
+TEST_CASE("the caps announced at start-up match the spec's caps vector - a hello's answer has its flag clear") {
   auto &c = fresh();
-  feed(c, wire({sc::kMsgHello}));
+  c.announce();
+  std::vector<uint8_t> announced;
   for (const auto &v : testvec::load())
-    if (v.kind == "caps") CHECK(g_hal.sent == v.wire);
+    if (v.kind == "caps") {
+      CHECK(g_hal.sent == v.wire);
+      announced = v.payload;
+    }
+  REQUIRE(g_hal.replies.size() == 1);
+  CHECK(sc::caps_announced(g_hal.replies[0].data(), static_cast<uint8_t>(g_hal.replies[0].size())));
+  feed(c, wire({sc::kMsgHello}));
+  REQUIRE(g_hal.replies.size() == 2);
+  std::vector<uint8_t> answer = announced;
+  answer[1 + offsetof(sc::CapsBody, flags)] = 0;
+  CHECK(g_hal.replies[1] == answer);
+  CHECK_FALSE(sc::caps_announced(g_hal.replies[1].data(), static_cast<uint8_t>(g_hal.replies[1].size())));
 }
 
 TEST_CASE("the status reply carries each motor's reversals - the head their wrapping sum - reset zeroes them") {

@@ -99,6 +99,7 @@ TEST_CASE("host encoders produce the spec's payloads") {
       CHECK(c.queue_size == v.num("queue"));
       CHECK(c.board_name == v.str("name"));
       CHECK(c.endstops == std::vector<uint8_t>{7, 7, 7, 0});
+      CHECK(c.announced == (v.num("announced") == 1));
     } else if (v.kind == "status") {
       const Status s = parse_status(v.payload.data(), v.payload.size());
       CHECK(s.head.frames_ok == v.num("frames_ok"));
@@ -210,6 +211,16 @@ TEST_CASE("single corrupted bytes never produce a good frame") {
       CHECK(decode_all(bad, &nbad).empty());
     }
   }
+}
+
+TEST_CASE("caps of a protocol version 2 board: no flags byte, its name whole, never announced") {
+  std::vector<uint8_t> v2 = {sc::kMsgCaps, 2, 4, 0x00, 0x24, 0xf4, 0x00, 0x18, 7, 7, 7, 0, 0};
+  for (char c : std::string("uno_cnc_shield_v3")) v2.push_back(static_cast<uint8_t>(c));
+  const Caps c = parse_caps(v2.data(), v2.size());
+  CHECK(c.protocol_version == 2);
+  CHECK(c.board_name == "uno_cnc_shield_v3");
+  CHECK_FALSE(c.announced);  // the name's first byte ('u') is odd, and no flag
+  CHECK_FALSE(sc::caps_announced(v2.data(), static_cast<uint8_t>(v2.size())));
 }
 
 TEST_CASE("reply parsers reject short or inconsistent payloads with a message") {

@@ -1,6 +1,7 @@
 // board.cpp: reply decoding and the synchronous board session.
 #include "board/board.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -8,19 +9,23 @@
 namespace stepchoir {
 
 Caps parse_caps(const uint8_t *p, size_t len) {
-  if (len < 1 + sizeof(sc::CapsBody) || p[0] != sc::kMsgCaps)
-    throw std::runtime_error("caps reply: expected at least " + std::to_string(1 + sizeof(sc::CapsBody)) +
+  // A board of protocol version 2 or older sends no flags byte: its name follows the endstops
+  // (so that `stepchoir doctor` can name a board whose firmware wants updating).
+  const size_t body = len >= 2 && p[1] < 3 ? sizeof(sc::CapsBody) - 1 : sizeof(sc::CapsBody);
+  if (len < 1 + body || p[0] != sc::kMsgCaps)
+    throw std::runtime_error("caps reply: expected at least " + std::to_string(1 + body) +
                              " bytes of type 0x41, got " + std::to_string(len));
-  sc::CapsBody c;
-  std::memcpy(&c, p + 1, sizeof c);
+  sc::CapsBody c{};
+  std::memcpy(&c, p + 1, body);
   Caps out;
+  out.announced = sc::caps_announced(p, static_cast<uint8_t>(std::min<size_t>(len, 255)));
   out.protocol_version = c.protocol_version;
   out.motor_count = c.motor_count;
   out.f_cpu_hz = c.f_cpu_hz;
   out.queue_size = c.queue_size;
   if (c.motor_count > sizeof c.endstops) throw std::runtime_error("caps reply: motor count " + std::to_string(c.motor_count) + " > 5");
   out.endstops.assign(c.endstops, c.endstops + c.motor_count);
-  out.board_name.assign(reinterpret_cast<const char *>(p) + 1 + sizeof c, len - 1 - sizeof c);
+  out.board_name.assign(reinterpret_cast<const char *>(p) + 1 + body, len - 1 - body);
   return out;
 }
 

@@ -55,20 +55,6 @@ void record_latency(LatencyHistogram &latency, BoardStats &stats, const uint64_t
   }
 }
 
-// A hello's wire form: a one-byte payload, so it is fixed. Built at load time.
-const WireFrame kHelloWire = [] {
-  WireFrame f;
-  const uint8_t hello = sc::kMsgHello;
-  f.len = sc::encode_frame(&hello, 1, f.bytes);
-  return f;
-}();
-
-// Called from: the writer thread, for each song frame it sent (its budget: a compare of at
-// most 5 bytes). Whether it is a song player's hello, which the board's capabilities answer.
-bool is_hello(const WireFrame &f) noexcept {
-  return f.len == kHelloWire.len && std::equal(f.bytes, f.bytes + f.len, kHelloWire.bytes);
-}
-
 }  // namespace
 
 BoardLink::BoardLink(const LiveBoard &board, LatencyHistogram &latency, std::atomic<int> &realtime, int refresh_ms)
@@ -155,8 +141,6 @@ void BoardLink::attach(Link *link) {
   stats_.write_failed.store(false);
   stats_.read_failed.store(false);
   stats_.restarted.store(false);
-  hellos_out_.store(0);  // a hello sent before the detach was answered meanwhile, or never
-  hello_sent_us_.store(0);
   stats_.last_status_us.store(0);
   stats_.heard_us.store(monotonic_us());
   stats_.reconnects.fetch_add(1);
@@ -312,10 +296,6 @@ void BoardLink::writer_loop() {
     budget_.refill(monotonic_us());
     for (WireFrame *f = song_.peek();
          f && !coalescer_.pending() && budget_.credit_bytes() >= LinkBudget::kBurstBytes / 2 + f->len; f = song_.peek()) {
-      if (is_hello(*f)) {  // counted before the write: its answer may come at once
-        hello_sent_us_.store(monotonic_us(), std::memory_order_relaxed);
-        hellos_out_.fetch_add(1, std::memory_order_release);
-      }
       if (!send_wire(link, f->bytes, f->len, false)) break;
       song_written_us_.store(monotonic_us(), std::memory_order_relaxed);
       song_written_.fetch_add(1, std::memory_order_release);
@@ -418,12 +398,8 @@ void BoardLink::reader_loop() {
       if (p[0] == sc::kMsgError && len >= 4) {
         stats_.board_errors.fetch_add(1, std::memory_order_relaxed);
         stats_.last_error.store(p[1], std::memory_order_relaxed);
-      } else if (p[0] == sc::kMsgCaps) {
-        uint32_t out = hellos_out_.load(std::memory_order_acquire);
-        const bool recent = monotonic_us() < hello_sent_us_.load(std::memory_order_relaxed) + kHelloAnswerUs;
-        while (recent && out > 0 && !hellos_out_.compare_exchange_weak(out, out - 1, std::memory_order_acq_rel)) {
-        }
-        if (!recent || out == 0) stats_.restarted.store(true, std::memory_order_relaxed);
+      } else if (sc::caps_announced(p, len)) {  // not a hello's answer: the board started again
+        stats_.restarted.store(true, std::memory_order_relaxed);
       } else if (p[0] == sc::kMsgStatus) {
         try {
           const Status s = parse_status(p, len);

@@ -53,10 +53,6 @@ static_assert(Board::kSilentMs >= 3 * kStatusEveryMs, "a silent board has missed
 // The reader passes at least every 50 ms (its read's timeout); a longer gap is its thread held
 // up, not the board's silence (BoardStats::heard_us).
 constexpr uint64_t kReaderGapUs = 200000;
-// Capabilities within this long after a song player's hello answer it (one a hello); others
-// come unasked (BoardStats::restarted). A hello is answered within milliseconds: the board's
-// reply, and a bridge's batching (16 ms on an FTDI chip).
-constexpr uint64_t kHelloAnswerUs = 250000;
 // Every motor's state is sent again this often, so that a frame the board lost (line noise,
 // an overrun) cannot leave a note stuck or missing for longer. Re-sending a sounding motor's
 // period keeps its phase; silence to a silent motor does nothing.
@@ -68,9 +64,9 @@ struct BoardStats {
   std::atomic<uint64_t> frames_sent{0}, bytes_sent{0}, entries_sent{0}, heartbeats{0}, coalesced{0};
   std::atomic<uint64_t> direct_frames{0};  // set-period frames the engine wrote itself
   std::atomic<bool> write_failed{false}, read_failed{false};
-  // The board sent its capabilities unasked: it started again with the link up (its reset
-  // button, a brown-out) and runs on its defaults, silent. Set by the reader for capabilities
-  // that answer no song player's hello (kHelloAnswerUs); cleared when a link is attached.
+  // The board announced its capabilities as it started (sc::kCapsAnnounced): it started again
+  // with the link up (its reset button, a brown-out) and runs on its defaults, silent. Set by
+  // the reader; cleared when a link is attached.
   std::atomic<bool> restarted{false};
   std::atomic<uint64_t> board_errors{0};   // kMsgError replies
   std::atomic<uint8_t> last_error{0};      // code of the latest
@@ -211,11 +207,6 @@ class BoardLink {
   size_t partial_pos_ = 0;
   bool forward_ = false;
   std::atomic<uint8_t> song_motors_{0};
-  // A song player's hellos the board has not answered yet, and when the writer sent the latest
-  // (monotonic_us). The writer counts each up just before its write, the reader counts one down
-  // for capabilities within kHelloAnswerUs of it; attach() clears both.
-  std::atomic<uint32_t> hellos_out_{0};
-  std::atomic<uint64_t> hello_sent_us_{0};
   uint64_t song_queued_ = 0;                 // song frames queued (the song player's thread)
   std::atomic<uint64_t> song_written_{0};    // song frames the writer handed to the OS
   std::atomic<uint64_t> song_written_us_{0}; // when it handed over the last one
