@@ -82,6 +82,13 @@ inline void hold(Power &p, uint32_t at) {
   p.flags = (uint8_t)((p.flags | kHeld) & ~kIdle);
 }
 
+// The motor's queued timed notes were dropped (kMsgSilence) at `now`: no hold, and its silence
+// counts from now.
+inline void release(Power &p, uint32_t now) {
+  p.flags &= (uint8_t)~kHeld;
+  stir(p, now);
+}
+
 // True while a queued timed note holds the driver (its time is still to come at `now`); a hold
 // whose time came is dropped. Called from: idle_due, drivers::poll (for a powered-down driver).
 inline bool held(Power &p, uint32_t now) {

@@ -56,7 +56,10 @@ void stop_all() {
   drivers::disable_all();
 }
 
-void silence(uint8_t mask) { sched::silence(mask); }
+void silence(uint8_t mask) {
+  sched::silence(mask);
+  drivers::release(mask);
+}
 
 uint8_t configure(const sc::ConfigBody &c) { return drivers::configure(c); }
 

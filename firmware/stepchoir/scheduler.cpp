@@ -363,18 +363,20 @@ void silence(uint8_t mask) {
   mask &= (uint8_t)((1u << kMotors) - 1u);
   // Busy first (each an atomic sbi): no handler runs while the main loop does, and none enters
   // from here on; then the rest with interrupts on.
-  for (uint8_t i = 0; i < kMotors; ++i)
-    if (mask & (1u << i)) kOps[i].busy();
+  uint8_t bit = 1;  // (a bit walked along, not 1 << i: no shift loop on the AVR)
+  for (uint8_t i = 0; i < kMotors; ++i, bit = (uint8_t)(bit << 1))
+    if (mask & bit) kOps[i].busy();
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     g_sounding &= (uint8_t)~mask;
     GPIOR0 &= (uint8_t)~mask;  // no visits
   }
-  for (uint8_t i = 0; i < kMotors; ++i) {
-    if (!(mask & (1u << i))) continue;
-    if (g_motor[i].flags & kMove) g_motor[i].move_end = sc::kMoveEndStopped;
-    g_motor[i].period_q8 = 0;
-    g_motor[i].flags &= (uint8_t)~(kRamp | kRestrike | kMove);
-    g_motor[i].cmd = kCmdNone;
+  bit = 1;
+  for (Motor *m = g_motor; m != g_motor + kMotors; ++m, bit = (uint8_t)(bit << 1)) {
+    if (!(mask & bit)) continue;
+    if (m->flags & kMove) m->move_end = sc::kMoveEndStopped;
+    m->period_q8 = 0;
+    m->flags &= (uint8_t)~(kRamp | kRestrike | kMove);
+    m->cmd = kCmdNone;
   }
   g_queue.drop(mask);  // their queued entries with them
 }

@@ -265,6 +265,12 @@ void disable_all() {
   g_unsure = 0xFF;
 }
 
+void release(uint8_t mask) {
+  const uint32_t now = sched::now();
+  for (drv::Power *p = g_power; p != g_power + kMotors; ++p, mask = (uint8_t)(mask >> 1))
+    if (mask & 1) drv::release(*p, now);
+}
+
 bool any_enabled() {
   for (uint8_t m = 0; m < kMotors; ++m)
     if (g_drivers[m].enabled()) return true;

@@ -74,6 +74,9 @@ uint32_t entry_time(uint8_t m, uint32_t period_q8, uint32_t at);
 void poll();
 // Called from: main loop (stop-all, watchdog). Every driver off (ENABLE at its inactive level).
 void disable_all();
+// Called from: main loop (kMsgSilence). The masked motors' queued notes were dropped: their
+// drivers are no longer held awake for them, and idle from now on.
+void release(uint8_t mask);
 // Called from: main loop. True when any driver is enabled.
 bool any_enabled();
 }  // namespace drivers

@@ -174,6 +174,34 @@ TEST_CASE("driver: uno a timed note on a sleeping motor starts exactly on its ti
   CHECK(lost_steps(t, 1) == 0);
 }
 
+TEST_CASE("driver: uno silence drops a motor's timed note far ahead - its driver is not held awake for it, another "
+          "motor's timed note plays",
+          "[driver]") {
+  DriverRig r("driver-silence", {"--sleep-pin", "1=14", "--wake-us", "1000"});
+  r.configure({1, 14, sc::kPinNone, sc::kIdleSleep, 50, 1000});
+  const uint32_t now = e2e::board_ticks(r.b);
+  const uint32_t at0 = now + e2e::ticks_for(0.1, r.caps.f_cpu_hz), at1 = now + e2e::ticks_for(20.0, r.caps.f_cpu_hz);
+  r.b.send(at_payload(at0, {{0, kPeriod1k}}));  // in time order
+  r.b.send(at_payload(at1, {{1, kPeriod1k}}));  // would wake motor 1's driver and hold it awake until then
+  r.b.send({sc::kMsgSilence, 0x02});            // motor 1's entry dropped, motor 0's kept
+  REQUIRE_FALSE(r.b.wait_reply(sc::kMsgError, 100));
+  r.wait(0.3);
+  r.play(0, 0);
+  const tr::Trace t = r.finish();
+  const tr::MotorTrace &m = t.motor[1];
+  CHECK(m.steps.empty());
+  // Asleep at the end, idle_ms after the silence: held for the dropped note, it would stay awake
+  // (SLEEP high) for 20 s.
+  REQUIRE_FALSE(m.sleeps.empty());
+  CHECK(m.sleeps.back().value == 0);
+  const auto notes = notes_of(t.motor[0].steps);
+  REQUIRE(notes.size() == 1);
+  std::printf("driver silence: motor 1's SLEEP changed %zu times, asleep at the end; motor 0's timed note played %zu "
+              "steps\n",
+              m.sleeps.size(), notes[0].second - notes[0].first + 1);
+  CHECK(notes[0].second - notes[0].first + 1 >= 150);  // about 0.2 s of 1 kHz
+}
+
 TEST_CASE("driver: uno idle disable - the shared ENABLE goes off once every motor is idle, a motor with idle none "
           "keeps it on",
           "[driver]") {

@@ -74,6 +74,16 @@ TEST_CASE("driver: a queued note holds the driver awake until its time", "[drive
   CHECK(drv::idle_due(q, false, 411 * kMs));
 }
 
+TEST_CASE("driver: a released hold no longer keeps the driver awake - idle_ms from the release", "[driver]") {
+  drv::Power p = power(sc::kIdleSleep, 10, 1000, 0);
+  drv::hold(p, 5000 * kMs);  // a note 5 s ahead, dropped at 100 ms (silence)
+  CHECK_FALSE(drv::idle_due(p, false, 50 * kMs));
+  drv::release(p, 100 * kMs);
+  CHECK_FALSE(drv::held(p, 101 * kMs));
+  CHECK_FALSE(drv::idle_due(p, false, 109 * kMs));
+  CHECK(drv::idle_due(p, false, 110 * kMs));
+}
+
 TEST_CASE("driver: a hold whose time came is dropped, even while the motor sounds", "[driver]") {
   drv::Power p = power(sc::kIdleSleep, 10, 1000, 0);
   drv::hold(p, 50 * kMs);

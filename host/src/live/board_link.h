@@ -10,8 +10,8 @@
 //   writer thread  writer_loop(): takes the ownership (yielding while the engine holds it for
 //                  its one write), drains the queue into the coalescer and sends; heartbeats,
 //                  status requests, state refreshes, jam song frames; stop-all at the end.
-//   reader thread  reader_loop(): decodes replies into the stats; of the sending state it
-//                  touches only the count of song hellos not yet answered.
+//   reader thread  reader_loop(): decodes replies into the stats; it touches none of the
+//                  sending state.
 //   song thread    queue_song_frame(), read_replies() (jam, one player a board).
 //   main thread    start(), request_stop_*() then join_*() (every board asked before any is
 //                  joined), detach(), attach(); stats() from any thread.

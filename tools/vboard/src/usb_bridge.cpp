@@ -52,8 +52,8 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
       // Timer0 at 16 MHz / 256, overflowing every 256 counts; the buffer goes when more than
       // BUFFER_NEARLY_FULL (96) bytes wait. The main loop then copies the bytes into the IN
       // endpoint: a reply reaches it 968 cycles after the overflow, and past 96 bytes the
-      // first go 6,926 cycles (p50) after the byte that made 97
-      // (bench/results/usb-16u2-firmware.md).
+      // first 64 go 6,926 cycles (p50) after the byte that made 97
+      // (bench/results/usb-16u2-firmware.md). The model sends every held byte then.
       t.flush_period_ns = cycles_16mhz_ns(256 * 256);
       t.release_delay_ns = cycles_16mhz_ns(968);
       t.packet_bytes = 97;

@@ -4,7 +4,7 @@
 //
 // Models (sources: docs/usb-bridges.md). Every USB model's host write lands in the bridge's
 // OUT endpoint when its full-speed transaction ends: the next 1 ms frame's start-of-frame packet,
-// the OUT token and the data packet (14.8 us for an 8-byte note frame).
+// the OUT token and the data packet (15.3 us for an 8-byte note frame).
 //   ideal  bytes pass at once both ways (a pty, a native UART).
 //   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): the first host
 //          byte 7.6-16.9 us after the packet lands (the 16U2's main loop coming round to the
