@@ -99,7 +99,7 @@ TEST_CASE("host encoders produce the spec's payloads") {
       CHECK(c.queue_size == v.num("queue"));
       CHECK(c.board_name == v.str("name"));
       CHECK(c.endstops == std::vector<uint8_t>{7, 7, 7, 0});
-      CHECK(c.announced == (v.num("announced") == 1));
+      CHECK(sc::caps_announced(v.payload.data(), static_cast<uint8_t>(v.payload.size())) == (v.num("announced") == 1));
     } else if (v.kind == "status") {
       const Status s = parse_status(v.payload.data(), v.payload.size());
       CHECK(s.head.frames_ok == v.num("frames_ok"));
@@ -219,8 +219,7 @@ TEST_CASE("caps of a protocol version 2 board: no flags byte, its name whole, ne
   const Caps c = parse_caps(v2.data(), v2.size());
   CHECK(c.protocol_version == 2);
   CHECK(c.board_name == "uno_cnc_shield_v3");
-  CHECK_FALSE(c.announced);  // the name's first byte ('u') is odd, and no flag
-  CHECK_FALSE(sc::caps_announced(v2.data(), static_cast<uint8_t>(v2.size())));
+  CHECK_FALSE(sc::caps_announced(v2.data(), static_cast<uint8_t>(v2.size())));  // 'u', the name's first byte, is odd
 }
 
 TEST_CASE("reply parsers reject short or inconsistent payloads with a message") {

@@ -1,7 +1,6 @@
 // board.cpp: reply decoding and the synchronous board session.
 #include "board/board.h"
 
-#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -18,7 +17,6 @@ Caps parse_caps(const uint8_t *p, size_t len) {
   sc::CapsBody c{};
   std::memcpy(&c, p + 1, body);
   Caps out;
-  out.announced = sc::caps_announced(p, static_cast<uint8_t>(std::min<size_t>(len, 255)));
   out.protocol_version = c.protocol_version;
   out.motor_count = c.motor_count;
   out.f_cpu_hz = c.f_cpu_hz;

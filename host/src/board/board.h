@@ -21,7 +21,6 @@ struct Caps {
   uint8_t queue_size = 0;
   std::vector<uint8_t> endstops;  // per motor: sc::kEndstopMin | kEndstopMax | kEndstopShared
   std::string board_name;
-  bool announced = false;  // sent unasked as the board started (sc::kCapsAnnounced), not a hello's answer
 };
 
 // kMsgStatus, decoded.
