@@ -17,7 +17,6 @@ struct Start {
 };
 
 constexpr double kSilenceS = 0.015;  // a motor that stepped within this did not start
-constexpr double kWithinS = 0.020;   // a key's edge comes this soon or counts as not found
 
 std::vector<Start> starts_of(const sc::trace::Trace &t) {
   std::vector<Start> out;

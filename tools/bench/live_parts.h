@@ -13,6 +13,8 @@
 
 namespace live_parts {
 
+constexpr double kWithinS = 0.020;  // a key's first STEP edge comes this soon, s, or counts as not found
+
 // What the host saw of one note, monotonic_us: the sender's clock just before it handed the note
 // to JACK, the MIDI callback's stamp and the return of the write() that carried its frame
 // (both 0 when no frame of this note was written: BoardStats::last_event_us was older).
