@@ -266,7 +266,8 @@ int main(int argc, char **argv) {
       << fmt((model.bus_ns + model.bus_byte_ns * note_bytes) / 1e3, 2) << " us into its frame) | "
       << fmt(first.min / kCyclesPerUs, 2) << "-" << fmt(first.max / kCyclesPerUs, 2) << " us |\n"
       << "| board -> host flush period | " << model_period << " cycles (" << fmt(model.flush_period_ns / 1e6, 3)
-      << " ms) | every release within " << fmt(phases.max - phases.min, 0) << " cycles of one place in it, over "
+      << " ms), each release up to " << model.release_wander_ns * kHz / 1000000000ull
+      << " cycles late (uniform) | every release within " << fmt(phases.max - phases.min, 0) << " cycles of one place in it, over "
       << fmt(periods, 0) << " periods |\n"
       << "| board -> host wait, min / p50 / max | the period's rest, then " << fmt(model.release_delay_ns / 1e3, 2)
       << " us | " << fmt(waits.min / kCyclesPerUs / 1000, 4) << " / " << fmt(waits.p50 / kCyclesPerUs / 1000, 3)

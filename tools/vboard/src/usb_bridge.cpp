@@ -53,9 +53,13 @@ BridgeTiming link_model_timing(LinkModel model, unsigned ftdi_latency_ms) {
       // BUFFER_NEARLY_FULL (96) bytes wait. The main loop then copies the bytes into the IN
       // endpoint: a reply reaches it 968 cycles after the overflow, and past 96 bytes the
       // first 64 go 6,926 cycles (p50) after the byte that made 97
-      // (bench/results/usb-16u2-firmware.md). The model sends every held byte then.
+      // (bench/results/usb-16u2-firmware.md). The model sends every held byte then. The
+      // releases' place in the period wanders over 898 cycles as the loop is busy elsewhere
+      // when the flag is set: the model draws it uniformly over that span (the chip's lie
+      // mostly near its late end).
       t.flush_period_ns = cycles_16mhz_ns(256 * 256);
       t.release_delay_ns = cycles_16mhz_ns(968);
+      t.release_wander_ns = cycles_16mhz_ns(898);
       t.packet_bytes = 97;
       t.packet_delay_ns = cycles_16mhz_ns(6926);
       // Host bytes: the main loop reads the OUT endpoint one byte a pass, 245 cycles; the
@@ -83,8 +87,20 @@ UsbBridge::UsbBridge(LinkModel model, const BridgeTiming &timing, uint64_t frame
     : model_(model),
       timing_(timing),
       frame_phase_ns_(frame_phase_ns),
+      flush_phase_ns_(flush_phase_ns),
       next_flush_ns_(flush_phase_ns),
+      seed_(seed),
       draw_(static_cast<std::minstd_rand::result_type>(seed % 2147483646u + 1)) {}
+
+uint64_t UsbBridge::taken_ns(uint64_t expiry_ns) const {
+  if (!timing_.release_wander_ns) return expiry_ns;
+  // splitmix64 of the seed and the period's number: the same period, the same wander.
+  uint64_t z = seed_ + (expiry_ns - flush_phase_ns_) / timing_.flush_period_ns * 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  z ^= z >> 31;
+  return expiry_ns + z % (timing_.release_wander_ns + 1);
+}
 
 void UsbBridge::from_host(const uint8_t *bytes, size_t count, uint64_t now_ns) {
   uint64_t at = now_ns;
@@ -139,15 +155,15 @@ uint64_t UsbBridge::next_host_pass_ns() const {
   // only when it is called), then the copy into the endpoint.
   const uint64_t came = from_board_.front().at_ns;
   uint64_t expiry = next_flush_ns_;
-  if (expiry <= came) expiry += ((came - expiry) / timing_.flush_period_ns + 1) * timing_.flush_period_ns;
-  return std::min(next, expiry + timing_.release_delay_ns);
+  if (expiry + timing_.release_wander_ns <= came)
+    expiry += ((came - expiry) / timing_.flush_period_ns) * timing_.flush_period_ns;
+  while (taken_ns(expiry) <= came) expiry += timing_.flush_period_ns;
+  return std::min(next, taken_ns(expiry) + timing_.release_delay_ns);
 }
 
 void UsbBridge::expire(uint64_t now_ns) {
-  while (next_flush_ns_ <= now_ns) {
-    release_before(next_flush_ns_, next_flush_ns_ + timing_.release_delay_ns);
-    next_flush_ns_ += timing_.flush_period_ns;
-  }
+  for (uint64_t taken; (taken = taken_ns(next_flush_ns_)) <= now_ns; next_flush_ns_ += timing_.flush_period_ns)
+    release_before(taken, taken + timing_.release_delay_ns);
 }
 
 void UsbBridge::release_before(uint64_t t_ns, uint64_t leave_ns) {

@@ -9,8 +9,9 @@
 //   16u2   the Uno R3 and Mega R3 (ATmega16U2, Arduino's usbserial firmware): the first host
 //          byte 7.6-16.9 us after the packet lands (the 16U2's main loop coming round to the
 //          endpoint), then a byte a pass of that loop (15.3 us); board -> host 60.5 us after
-//          the 16U2's Timer0 overflows (every 4.096 ms, free-running), or 432.9 us after the
-//          byte that makes more than 96 wait.
+//          the 16U2's loop sees its Timer0 overflow (every 4.096 ms, free-running; the loop
+//          sees it up to 56.1 us late), or 432.9 us after the byte that makes more than 96
+//          wait.
 //   ftdi   FT232R boards: board -> host when the latency timer expires (16 ms by default,
 //          restarted by every packet sent) or a 62-byte packet is full.
 //   ch340  CH340 clones: board -> host in the next 1 ms frame, or at once when a 32-byte
@@ -44,6 +45,8 @@ struct BridgeTiming {
                                     // (0: back to back at the line's rate); AvrAdapter paces it
   uint64_t flush_period_ns = 0;     // board -> host: waiting bytes go at each period's end (0: at once)
   uint64_t release_delay_ns = 0;    // ... that long after the period's end
+  uint64_t release_wander_ns = 0;   // ... both later by up to this much (the bridge's loop coming
+                                    // round to the timer's flag), drawn uniformly per period
   bool restart_on_packet = false;   // a full packet restarts the period (FTDI's latency timer)
   size_t packet_bytes = 0;          // ... and a full packet goes (0: no such rule)
   uint64_t packet_delay_ns = 0;     // ... this long after the byte that filled it
@@ -93,13 +96,18 @@ class UsbBridge {
   // Every held board byte that came before t_ns leaves at leave_ns (or after the bytes before
   // it): into leaving_.
   void release_before(uint64_t t_ns, uint64_t leave_ns);
-  // The timer's expiries up to now_ns: their bytes into leaving_.
+  // The timer's expiries whose bytes are taken by now_ns: their bytes into leaving_.
   void expire(uint64_t now_ns);
+  // When the bridge takes the held bytes at the expiry at expiry_ns (the expiry and that
+  // period's wander: a function of the period alone, so that it can be known ahead).
+  uint64_t taken_ns(uint64_t expiry_ns) const;
 
   LinkModel model_;
   BridgeTiming timing_;
   uint64_t frame_phase_ns_;
-  uint64_t next_flush_ns_;  // the bridge's next timer expiry
+  uint64_t flush_phase_ns_;  // the bridge's first timer expiry
+  uint64_t next_flush_ns_;   // the bridge's next timer expiry whose bytes are not yet taken
+  uint64_t seed_;
   std::minstd_rand draw_;
   std::deque<Timed> to_board_;
   std::deque<Timed> from_board_;   // board -> host: held, at_ns when each came

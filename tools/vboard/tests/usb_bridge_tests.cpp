@@ -23,6 +23,14 @@ UsbBridge make(LinkModel m, uint64_t frame_phase = 0, uint64_t flush_phase = 0, 
   return UsbBridge(m, link_model_timing(m, ftdi_ms), frame_phase, flush_phase);
 }
 
+// The 16u2 model with each release on one place in its period (no wander): for the tests of
+// exact times.
+UsbBridge make_16u2_steady(uint64_t frame_phase, uint64_t flush_phase) {
+  BridgeTiming t = link_model_timing(LinkModel::k16u2);
+  t.release_wander_ns = 0;
+  return UsbBridge(LinkModel::k16u2, t, frame_phase, flush_phase);
+}
+
 // Host time (ns) at which the board's byte sent at sent_ns reaches the host, stepping the host
 // clock by 20 us as the virtual board's loop does (sent_ns: not before the last call's answer).
 uint64_t arrival(UsbBridge &b, uint64_t sent_ns) {
@@ -117,7 +125,7 @@ TEST_CASE("usb bridge: each model says when it next passes board bytes to the ho
   ideal.to_host(7000, out);
   CHECK(ideal.next_host_pass_ns() == UINT64_MAX);
   out.clear();
-  UsbBridge u = make(LinkModel::k16u2, 0, 1000000);
+  UsbBridge u = make_16u2_steady(0, 1000000);
   CHECK(u.next_host_pass_ns() == UINT64_MAX);
   u.from_board(0x22, 1200000);
   CHECK(u.next_host_pass_ns() == 5156500);  // the next Timer0 overflow, and 968 cycles' copy
@@ -134,7 +142,7 @@ TEST_CASE("usb bridge: each model says when it next passes board bytes to the ho
 }
 
 TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows") {
-  UsbBridge b = make(LinkModel::k16u2, 0, 1000000);
+  UsbBridge b = make_16u2_steady(0, 1000000);
   // Overflows at 1.0, 5.096, 9.192 ms ...: a byte sent at 1.2 ms waits for 5.096 ms, then
   // the 16U2's copy into its endpoint (60.5 us).
   const uint64_t t = arrival(b, 1200000);
@@ -156,8 +164,46 @@ TEST_CASE("usb bridge: 16u2 holds board bytes until its 4.096 ms timer overflows
   CHECK(shortest >= 60500);  // never sooner than the copy
 }
 
+TEST_CASE("usb bridge: 16u2 releases wander over the loop's span, each period's the same whenever asked") {
+  const BridgeTiming t = link_model_timing(LinkModel::k16u2);
+  REQUIRE(t.release_wander_ns == 56125);  // 898 cycles of 16 MHz: bench/results/usb-16u2-firmware.md
+  const uint64_t period = t.flush_period_ns, phase = 700000;
+  UsbBridge b = make(LinkModel::k16u2, 0, phase);
+  UsbBridge twin = make(LinkModel::k16u2, 0, phase);
+  uint64_t earliest = UINT64_MAX, latest = 0;
+  std::vector<uint8_t> out;
+  for (uint64_t k = 1; k <= 300; ++k) {
+    const uint64_t expiry = phase + k * period;
+    // A byte just before the overflow goes in its release, whenever that comes; it is said
+    // ahead, and nothing goes before.
+    b.from_board(uint8_t(k), expiry - 1000);
+    const uint64_t said = b.next_host_pass_ns();
+    CHECK(said >= expiry + t.release_delay_ns);
+    CHECK(said <= expiry + t.release_delay_ns + t.release_wander_ns);
+    out.clear();
+    b.to_host(said - 1, out);
+    CHECK(out.empty());
+    b.to_host(said, out);
+    REQUIRE(out.size() == 1);
+    CHECK(out[0] == uint8_t(k));
+    earliest = std::min(earliest, said - expiry - t.release_delay_ns);
+    latest = std::max(latest, said - expiry - t.release_delay_ns);
+    // The same period's wander, asked of a bridge whose bytes came otherwise: only every
+    // second period, each asked only after the expiry.
+    if (k % 2) continue;
+    twin.from_board(0, expiry + 1);  // after the overflow, before the loop saw it: or not
+    const uint64_t twin_said = twin.next_host_pass_ns();
+    out.clear();
+    twin.to_host(twin_said, out);
+    REQUIRE(out.size() == 1);
+    CHECK(((twin_said == said) || (twin_said >= said + period - t.release_wander_ns)));
+  }
+  CHECK(earliest < t.release_wander_ns / 10);
+  CHECK(latest > t.release_wander_ns * 9 / 10);
+}
+
 TEST_CASE("usb bridge: 16u2 sends 433 us after more than 96 bytes wait, and bytes keep their order") {
-  UsbBridge b = make(LinkModel::k16u2, 0, 0);
+  UsbBridge b = make_16u2_steady(0, 0);
   std::vector<uint8_t> out;
   for (int i = 0; i < 96; ++i) b.from_board(uint8_t(i), 100000 + uint64_t(i) * 10000);
   b.to_host(1100000, out);
