@@ -6,11 +6,15 @@
 
 #include <catch2/catch.hpp>
 
+#include <signal.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis.h"
@@ -131,6 +135,18 @@ inline std::string wait_for_line(ChildProcess &p, const std::string &prefix, std
     if (line.rfind(prefix, 0) == 0) return line;
   }
   return "";
+}
+
+// Presses the virtual board's reset button (SIGUSR1: the MCU restarts, the link stays up), lets
+// `stepchoir play` run to its end and stops the board. Returns play's output and its status.
+inline std::pair<std::string, int> press_reset_until_played(ChildProcess &play, pid_t board_pid,
+                                                            const std::function<int()> &stop_board) {
+  REQUIRE(::kill(board_pid, SIGUSR1) == 0);
+  std::pair<std::string, int> done;
+  done.first = play.read_rest(60000);
+  done.second = play.wait();
+  REQUIRE(stop_board() == 0);
+  return done;
 }
 
 inline void print_figures(const char *what, const sc::trace::ScoreCheck &c) {

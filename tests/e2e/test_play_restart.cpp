@@ -8,8 +8,6 @@
 // its bootloader: test_play.cpp; `jam`: test_jam_reset.cpp.
 #include <catch2/catch.hpp>
 
-#include <signal.h>
-
 #include <algorithm>
 #include <chrono>
 #include <fstream>
@@ -73,10 +71,7 @@ TEST_CASE("play: an Uno that restarts without a bootloader mid-song - the entrie
   // (the song's first note about 3.3 s after the open), then about a second into the song: the
   // restart.
   std::this_thread::sleep_for(std::chrono::milliseconds(4500));
-  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
-  const std::string out = play.read_rest(60000);
-  const int status = play.wait();
-  REQUIRE(vb.stop() == 0);
+  const auto [out, status] = press_reset_until_played(play, vb.pid(), [&vb] { return vb.stop(); });
   INFO(out);
   REQUIRE(status == 0);
   CHECK(out.find("reconnects 1") != std::string::npos);
