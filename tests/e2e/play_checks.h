@@ -205,6 +205,7 @@ inline sc::trace::ScoreCheck check_song(const char *what, const sc::trace::Trace
   print_figures(what, c);
   INFO(c.first_problem);
   CHECK(c.found == c.notes);
+  CHECK(c.offsets_tied == 0);  // the notes checked are the song's own, not a repeat's
   const bool bridge = behind_bridge(t);
   CHECK(pct(c.onset_err_us, 0.99) < (bridge ? 500.0 : 100.0));
   // The worst onset: a note whose first edge meets a burst of the other motors' edges comes

@@ -93,7 +93,10 @@ ScoreCheck check_score(const Trace &t, const std::vector<ScoreNote> &notes, std:
     for (size_t k : fresh) lined_up += start_near(k, offset, 0.005, &at);
     for (size_t k = 0; k < notes.size(); ++k) in_tune += sounds_right(k, offset);
     const size_t score = lined_up * (notes.size() + 1) + in_tune;
-    if (score > best) best = score, rough = offset;
+    if (score > best)
+      best = score, rough = offset, c.offsets_tied = 0;
+    else if (score == best && best > 0)
+      ++c.offsets_tied;
   }
   std::vector<double> xs, ys;
   for (size_t k : fresh) {

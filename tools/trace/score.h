@@ -37,6 +37,8 @@ struct ScoreCheck {
   double max_cents = 0;              // pitch error in real time, worst note
   double max_spread_cents = 0;       // pitch error against the notes' median error (in tune together)
   size_t turned = 0;                 // notes during which the motor turned round (no pitch measured)
+  size_t offsets_tied = 0;           // other offsets at which the score lines up with the trace as
+                                     // well (a song that repeats: which notes are which is a guess)
   std::string first_problem;
 };
 
