@@ -33,7 +33,7 @@ ScoreCheck check_last_notes(bool repeats) {
 
 }  // namespace
 
-TEST_CASE("score: a song's end lines up at its own offset; one that repeats lines up at several, and says so",
+TEST_CASE("score: a song's end lines up at its own offset - one that repeats lines up at several, and says so",
           "[score]") {
   const ScoreCheck own = check_last_notes(false);
   CHECK(own.offsets_tied == 0);
