@@ -12,7 +12,6 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,6 +24,7 @@
 #include "smf_builder.h"
 #include "song/song.h"
 #include "trace.h"
+#include "vboard_process.h"
 
 namespace play_checks {
 
@@ -139,13 +139,12 @@ inline std::string wait_for_line(ChildProcess &p, const std::string &prefix, std
 
 // Presses the virtual board's reset button (SIGUSR1: the MCU restarts, the link stays up), lets
 // `stepchoir play` run to its end and stops the board. Returns play's output and its status.
-inline std::pair<std::string, int> press_reset_until_played(ChildProcess &play, pid_t board_pid,
-                                                            const std::function<int()> &stop_board) {
-  REQUIRE(::kill(board_pid, SIGUSR1) == 0);
+inline std::pair<std::string, int> press_reset_until_played(ChildProcess &play, VboardProcess &vb) {
+  REQUIRE(::kill(vb.pid(), SIGUSR1) == 0);
   std::pair<std::string, int> done;
   done.first = play.read_rest(60000);
   done.second = play.wait();
-  REQUIRE(stop_board() == 0);
+  REQUIRE(vb.stop() == 0);
   return done;
 }
 

@@ -182,7 +182,7 @@ TEST_CASE("play: a Mega reset with its link up (its button) mid-song, held in it
   std::this_thread::sleep_for(std::chrono::milliseconds(4000));
   REQUIRE(::kill(play.pid(), SIGCONT) == 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-  const auto [out, status] = press_reset_until_played(play, vb.pid(), [&vb] { return vb.stop(); });
+  const auto [out, status] = press_reset_until_played(play, vb);
   INFO(out);
   REQUIRE(status == 0);
   CHECK(out.find("reconnects 1") != std::string::npos);

@@ -72,7 +72,7 @@ TEST_CASE("play: an Uno that restarts without a bootloader mid-song - the entrie
   // (the song's first note about 3.3 s after the open), then about a second into the song: the
   // restart.
   std::this_thread::sleep_for(std::chrono::milliseconds(4500));
-  const auto [out, status] = press_reset_until_played(play, vb.pid(), [&vb] { return vb.stop(); });
+  const auto [out, status] = press_reset_until_played(play, vb);
   INFO(out);
   REQUIRE(status == 0);
   CHECK(out.find("reconnects 1") != std::string::npos);
