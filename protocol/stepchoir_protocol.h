@@ -228,11 +228,13 @@ static_assert(sizeof(CapsBody) == 13, "caps as PROTOCOL.md shows it");
 // CapsBody::flags bit 0: the board sent these capabilities unasked as it started (power-up,
 // its reset button, a brown-out); clear in a hello's answer.
 static const uint8_t kCapsAnnounced = 0x01;
+// The protocol version from which CapsBody carries flags; an older board's body ends at endstops.
+static const uint8_t kCapsFlagsSinceVersion = 3;
 
 // Whether a kMsgCaps payload (type byte included) is a board's announcement as it started:
 // protocol version 3 on; a board of an older version never says so.
 inline bool caps_announced(const uint8_t *p, uint8_t len) {
-  return len >= 1 + sizeof(CapsBody) && p[0] == kMsgCaps && p[1] >= 3 &&
+  return len >= 1 + sizeof(CapsBody) && p[0] == kMsgCaps && p[1] >= kCapsFlagsSinceVersion &&
          (p[1 + offsetof(CapsBody, flags)] & kCapsAnnounced);
 }
 

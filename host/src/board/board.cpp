@@ -2,6 +2,7 @@
 #include "board/board.h"
 
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <stdexcept>
 
@@ -10,7 +11,8 @@ namespace stepchoir {
 Caps parse_caps(const uint8_t *p, size_t len) {
   // A board of protocol version 2 or older sends no flags byte: its name follows the endstops
   // (so that `stepchoir doctor` can name a board whose firmware wants updating).
-  const size_t body = len >= 2 && p[1] < 3 ? sizeof(sc::CapsBody) - 1 : sizeof(sc::CapsBody);
+  const size_t body =
+      len >= 2 && p[1] < sc::kCapsFlagsSinceVersion ? offsetof(sc::CapsBody, flags) : sizeof(sc::CapsBody);
   if (len < 1 + body || p[0] != sc::kMsgCaps)
     throw std::runtime_error("caps reply: expected at least " + std::to_string(1 + body) +
                              " bytes of type 0x41, got " + std::to_string(len));
