@@ -19,7 +19,7 @@ cmake --build build -j"$(nproc)"
   # "the machine stalled the simulation"), and they get one rerun. Flake rates:
   # bench/results/flakes.md.
   ctest --output-on-failure -j"$(nproc)" -LE e2e "$@"
-  ctest --output-on-failure -L e2e -LE pacing "$@"
+  ctest --output-on-failure -j"$(nproc)" -L e2e -LE pacing "$@"
   ctest --output-on-failure -L pacing --repeat until-pass:2 "$@"
 )
 [ "${STEPCHOIR_QUICK:-0}" = 1 ] && exit 0
