@@ -35,99 +35,183 @@ std::string mm_text(double steps, const MotionSettings &ms) {
   return buf;
 }
 
-MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int64_t steps, double speed,
-                      const MotionSettings &ms, bool to_switch) {
-  MoveResult r;
-  if (steps == 0) return r;
+namespace {
+
+// "PORT: motor 2" or "PORT: motors 0, 1 and 2".
+std::string motors_name(const std::string &port, const std::vector<uint8_t> &motors) {
+  if (motors.size() == 1) return motor_name(port, motors[0]);
+  std::string text = port + ": motors ";
+  for (size_t i = 0; i < motors.size(); ++i)
+    text += (i == 0 ? "" : i + 1 == motors.size() ? " and " : ", ") + std::to_string(motors[i]);
+  return text;
+}
+
+// The move body of an order (steps not 0).
+sc::MoveBody move_body(const std::string &port, const MoveOrder &o) {
   sc::MoveBody b{};
-  b.motor = motor;
-  b.flags = static_cast<uint8_t>((steps > 0 ? sc::kMoveUp : 0) | (to_switch ? sc::kMoveToSwitch : 0));
-  const uint64_t n = static_cast<uint64_t>(std::llabs(steps));
-  if (n > sc::kMaxTravelSteps) throw std::runtime_error(motor_name(port, motor) + ": a move of " + std::to_string(n) + " steps is too long");
+  b.motor = o.motor;
+  b.flags = static_cast<uint8_t>((o.steps > 0 ? sc::kMoveUp : 0) | (o.to_switch ? sc::kMoveToSwitch : 0));
+  const uint64_t n = static_cast<uint64_t>(std::llabs(o.steps));
+  if (n > sc::kMaxTravelSteps)
+    throw std::runtime_error(motor_name(port, o.motor) + ": a move of " + std::to_string(n) + " steps is too long");
   b.steps = static_cast<uint32_t>(n);
-  b.speed_max = steps_per_s(speed, ms);
-  b.speed_min = std::min(b.speed_max, steps_per_s(ms.min_speed, ms));
-  b.accel = static_cast<uint32_t>(std::clamp(std::round(ms.acceleration * ms.steps_per_mm), 1.0, double(sc::kMoveAccelMax)));
+  b.speed_max = steps_per_s(o.speed, o.ms);
+  b.speed_min = std::min(b.speed_max, steps_per_s(o.ms.min_speed, o.ms));
+  b.accel = static_cast<uint32_t>(std::clamp(std::round(o.ms.acceleration * o.ms.steps_per_mm), 1.0, double(sc::kMoveAccelMax)));
+  return b;
+}
+
+}  // namespace
+
+std::vector<MoveResult> move_motors(Board &board, const std::string &port, const std::vector<MoveOrder> &orders) {
+  std::vector<MoveResult> results(orders.size());
+  std::vector<sc::MoveBody> bodies;
+  std::vector<size_t> waiting;  // orders whose move-done has not come
+  double longest_s = 0;
+  for (size_t i = 0; i < orders.size(); ++i) {
+    if (orders[i].steps == 0) continue;
+    bodies.push_back(move_body(port, orders[i]));
+    waiting.push_back(i);
+    longest_s = std::max(longest_s, move_seconds(bodies.back().steps, bodies.back().speed_min));
+  }
+  if (waiting.empty()) return results;
+  std::vector<uint8_t> motors;
+  for (size_t i : waiting) motors.push_back(orders[i].motor);
   const size_t errors_before = board.errors().size();
-  board.send(move_payload(b));
+  for (const sc::MoveBody &b : bodies) board.send(move_payload(b));
+  // Stops every motor when some other than the ones that ended may still move, and throws.
+  const auto fail = [&](const std::string &what) {
+    if (!waiting.empty()) board.send({sc::kMsgStopAll});
+    throw std::runtime_error(what);
+  };
   using clock = std::chrono::steady_clock;
-  const auto deadline = clock::now() + std::chrono::duration_cast<clock::duration>(
-                                           std::chrono::duration<double>(move_seconds(b.steps, b.speed_min)));
-  for (;;) {
+  const auto deadline =
+      clock::now() + std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(longest_s));
+  while (!waiting.empty()) {
     const auto reply = board.wait_reply(sc::kMsgMoveDone, kMoveHeartbeatMs);
     for (size_t i = errors_before; i < board.errors().size(); ++i) {
       const BoardError &e = board.errors()[i];
       if (e.type == sc::kMsgMove || e.type == sc::kMsgHeartbeat)
-        throw std::runtime_error(motor_name(port, motor) + ": the board refused the move: " + sc::error_name(e.code) +
-                                 (e.code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
-                                  : e.code == sc::kErrBusy      ? " (the motor is playing or moving)"
-                                                                : ""));
+        fail(motors_name(port, motors) + ": the board refused the move: " + sc::error_name(e.code) +
+             (e.code == sc::kErrUnknownType ? " (its firmware is older than this program: flash this version's)"
+              : e.code == sc::kErrBusy      ? " (the motor is playing or moving)"
+                                            : ""));
     }
     if (reply) {
       sc::MoveDoneBody d{};
-      if (!sc::get_move_done(reply->data(), static_cast<uint8_t>(reply->size()), &d) || d.motor != motor) continue;
+      if (!sc::get_move_done(reply->data(), static_cast<uint8_t>(reply->size()), &d)) continue;
+      const auto it = std::find_if(waiting.begin(), waiting.end(), [&](size_t i) { return orders[i].motor == d.motor; });
+      if (it == waiting.end()) continue;
+      const size_t i = *it;
+      waiting.erase(it);
       if (d.end == sc::kMoveEndStopped)
-        throw std::runtime_error(motor_name(port, motor) + ": the move was stopped (stop-all or the watchdog) after " +
-                                 std::to_string(d.steps) + " steps");
-      r.end = d.end;
-      r.position = d.position;
-      r.steps = d.steps;
-      return r;
+        fail(motor_name(port, d.motor) + ": the move was stopped (stop-all or the watchdog) after " +
+             std::to_string(d.steps) + " steps");
+      results[i].end = d.end;
+      results[i].position = d.position;
+      results[i].steps = d.steps;
+      continue;
     }
     if (clock::now() > deadline) {
-      board.send({sc::kMsgStopAll});
-      throw std::runtime_error(motor_name(port, motor) + ": the move did not end in time: every motor stopped");
+      std::vector<uint8_t> late;
+      for (size_t i : waiting) late.push_back(orders[i].motor);
+      fail(motors_name(port, late) + ": the move did not end in time: every motor stopped");
     }
-    board.send({sc::kMsgHeartbeat});  // keeps the watchdog fed while the motor moves (every kMoveHeartbeatMs)
+    board.send({sc::kMsgHeartbeat});  // keeps the watchdog fed while motors move (every kMoveHeartbeatMs)
   }
+  return results;
 }
 
-HomeResult home_motor(Board &board, const Caps &caps, const std::string &port, uint8_t motor,
-                      uint32_t travel_steps, const MotionSettings &ms, const std::function<void(const std::string &)> &say) {
-  const std::string name = motor_name(port, motor);
-  const uint8_t ends = motor < caps.endstops.size() ? caps.endstops[motor] : 0;
-  if (!(ends & (sc::kEndstopMin | sc::kEndstopMax)))
-    throw std::runtime_error(name + " has no end switch: move its carriage to the middle with `stepchoir jog`, then "
-                             "declare it there with `stepchoir center`");
-  if (travel_steps == 0) throw std::runtime_error(name + ": homing needs its travel_steps in the configuration");
-  const bool both = (ends & sc::kEndstopShared) || ((ends & sc::kEndstopMin) && (ends & sc::kEndstopMax));
-  const int dir = (ends & sc::kEndstopMin) ? -1 : 1;  // toward the first switch
-  const int64_t search = int64_t(travel_steps) + travel_steps / 4;
-  const int64_t backoff = std::max<int64_t>(1, std::llround(ms.backoff_mm * ms.steps_per_mm));
-  const char *first = dir < 0 ? "min" : "max";
-  // Touches the switch toward `d`, at `speed` within `limit` steps; throws if it never fires.
-  auto touch = [&](int d, double speed, int64_t limit, const char *which) {
-    const MoveResult r = move_motor(board, port, motor, d * limit, speed, ms, true);
-    if (r.end != sc::kMoveEndSwitch)
-      throw std::runtime_error(name + ": the " + std::string(which) + " switch did not fire within " +
-                               std::to_string(limit) + " steps (" + mm_text(double(limit), ms) +
-                               "): the motor stopped. Is the switch wired, and travel_steps right?");
-    return r;
+MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int64_t steps, double speed,
+                      const MotionSettings &ms, bool to_switch) {
+  return move_motors(board, port, {MoveOrder{motor, steps, speed, ms, to_switch}})[0];
+}
+
+std::vector<HomeResult> home_motors(Board &board, const Caps &caps, const std::string &port,
+                                    const std::vector<HomeJob> &jobs, const std::function<void(const std::string &)> &say) {
+  // Each motor's switches, as caps has them, and the stages' figures.
+  struct Homing {
+    std::string name;
+    bool both = false;   // a switch at each end (or one input for both)
+    int dir = 0;         // toward the first switch: -1 min, +1 max
+    int64_t search = 0;  // the longest run to a switch, steps
+    int64_t backoff = 0;
+    int32_t origin = 0;  // the first switch's position
   };
-  touch(dir, ms.home_speed, search, first);
-  move_motor(board, port, motor, -dir * backoff, ms.home_speed, ms, false);
-  touch(dir, ms.home_speed / 4, 2 * backoff, first);
-  const int32_t origin = dir < 0 ? 0 : int32_t(travel_steps);
-  board.send(set_position_payload(motor, origin));
-  say(name + ": " + first + " switch found, position " + std::to_string(origin));
-  HomeResult h;
-  h.travel_steps = int32_t(travel_steps);
-  move_motor(board, port, motor, -dir * backoff, ms.home_speed, ms, false);
-  if (both) {
-    const MoveResult far = touch(-dir, ms.home_speed, search, dir < 0 ? "max" : "min");
-    h.travel_steps = std::abs(far.position - origin);
-    h.measured = true;
-    if (dir > 0) board.send(set_position_payload(motor, 0));  // positions count from the min end
-    say(name + ": " + (dir < 0 ? "max" : "min") + " switch found: travel " + std::to_string(h.travel_steps) +
-        " steps (" + mm_text(h.travel_steps, ms) + ")");
-    move_motor(board, port, motor, dir * backoff, ms.home_speed, ms, false);
+  std::vector<Homing> hs;
+  for (const HomeJob &j : jobs) {
+    Homing h;
+    h.name = motor_name(port, j.motor);
+    const uint8_t ends = j.motor < caps.endstops.size() ? caps.endstops[j.motor] : 0;
+    if (!(ends & (sc::kEndstopMin | sc::kEndstopMax)))
+      throw std::runtime_error(h.name + " has no end switch: move its carriage to the middle with `stepchoir jog`, then "
+                               "declare it there with `stepchoir center`");
+    if (j.travel_steps == 0) throw std::runtime_error(h.name + ": homing needs its travel_steps in the configuration");
+    h.both = (ends & sc::kEndstopShared) || ((ends & sc::kEndstopMin) && (ends & sc::kEndstopMax));
+    h.dir = (ends & sc::kEndstopMin) ? -1 : 1;
+    h.search = int64_t(j.travel_steps) + j.travel_steps / 4;
+    h.backoff = std::max<int64_t>(1, std::llround(j.ms.backoff_mm * j.ms.steps_per_mm));
+    h.origin = h.dir < 0 ? 0 : int32_t(j.travel_steps);
+    hs.push_back(h);
   }
+  std::vector<HomeResult> out(jobs.size());
+  for (size_t i = 0; i < jobs.size(); ++i) out[i].travel_steps = int32_t(jobs[i].travel_steps);
+  // One stage: every motor that `takes` its move (toward `d` times its first switch's side,
+  // `steps` long, at `speed`), at once.
+  const auto stage = [&](const std::function<bool(size_t)> &takes, const std::function<int64_t(size_t)> &steps,
+                         const std::function<double(size_t)> &speed, bool to_switch) {
+    std::vector<MoveOrder> orders(jobs.size());
+    for (size_t i = 0; i < jobs.size(); ++i)
+      if (takes(i)) orders[i] = MoveOrder{jobs[i].motor, steps(i), speed(i), jobs[i].ms, to_switch};
+    return move_motors(board, port, orders);
+  };
+  // A touch: each motor's switch must have ended its move, else the motor stopped at its limit.
+  const auto touched = [&](const std::vector<MoveResult> &r, const std::function<bool(size_t)> &takes,
+                           const std::function<int64_t(size_t)> &limit, const std::function<bool(size_t)> &first_side) {
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      if (!takes(i) || r[i].end == sc::kMoveEndSwitch) continue;
+      const bool min_side = (hs[i].dir < 0) == first_side(i);
+      throw std::runtime_error(hs[i].name + ": the " + std::string(min_side ? "min" : "max") +
+                               " switch did not fire within " + std::to_string(limit(i)) + " steps (" +
+                               mm_text(double(limit(i)), jobs[i].ms) +
+                               "): the motor stopped. Is the switch wired, and travel_steps right?");
+    }
+  };
+  const auto all = [](size_t) { return true; };
+  const auto first = [](size_t) { return true; };
+  const auto home_speed = [&](size_t i) { return jobs[i].ms.home_speed; };
+  const auto search = [&](size_t i) { return hs[i].search; };
+  const auto touch_limit = [&](size_t i) { return 2 * hs[i].backoff; };
+  touched(stage(all, [&](size_t i) { return hs[i].dir * hs[i].search; }, home_speed, true), all, search, first);
+  stage(all, [&](size_t i) { return -hs[i].dir * hs[i].backoff; }, home_speed, false);
+  touched(stage(all, [&](size_t i) { return hs[i].dir * touch_limit(i); },
+                [&](size_t i) { return jobs[i].ms.home_speed / 4; }, true),
+          all, touch_limit, first);
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    board.send(set_position_payload(jobs[i].motor, hs[i].origin));
+    say(hs[i].name + ": " + (hs[i].dir < 0 ? "min" : "max") + " switch found, position " + std::to_string(hs[i].origin));
+  }
+  stage(all, [&](size_t i) { return -hs[i].dir * hs[i].backoff; }, home_speed, false);
+  const auto both = [&](size_t i) { return hs[i].both; };
+  const auto far = stage(both, [&](size_t i) { return -hs[i].dir * hs[i].search; }, home_speed, true);
+  touched(far, both, search, [](size_t) { return false; });
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    if (!hs[i].both) continue;
+    out[i].travel_steps = std::abs(far[i].position - hs[i].origin);
+    out[i].measured = true;
+    if (hs[i].dir > 0) board.send(set_position_payload(jobs[i].motor, 0));  // positions count from the min end
+    say(hs[i].name + ": " + (hs[i].dir < 0 ? "max" : "min") + " switch found: travel " +
+        std::to_string(out[i].travel_steps) + " steps (" + mm_text(out[i].travel_steps, jobs[i].ms) + ")");
+  }
+  stage(both, [&](size_t i) { return hs[i].dir * hs[i].backoff; }, home_speed, false);
   const auto s = board.status(1000);
-  if (!s || motor >= s->motors.size()) throw std::runtime_error(name + ": no status reply");
-  h.middle = h.travel_steps / 2;
-  move_motor(board, port, motor, int64_t(h.middle) - s->motors[motor].position_steps, ms.max_speed, ms, false);
-  say(name + ": in the middle, position " + std::to_string(h.middle));
-  return h;
+  for (size_t i = 0; i < jobs.size(); ++i)
+    if (!s || jobs[i].motor >= s->motors.size()) throw std::runtime_error(hs[i].name + ": no status reply");
+  for (size_t i = 0; i < jobs.size(); ++i) out[i].middle = out[i].travel_steps / 2;
+  stage(all, [&](size_t i) { return int64_t(out[i].middle) - s->motors[jobs[i].motor].position_steps; },
+        [&](size_t i) { return jobs[i].ms.max_speed; }, false);
+  for (size_t i = 0; i < jobs.size(); ++i) say(hs[i].name + ": in the middle, position " + std::to_string(out[i].middle));
+  return out;
 }
 
 }  // namespace stepchoir

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "board/board.h"
 
@@ -38,10 +39,24 @@ struct MoveResult {
   uint32_t steps = 0;               // steps taken
 };
 
-// Moves `motor` by `steps` (the sign gives the direction: up counts the position up) at most,
+// One motor's move: `steps` (the sign gives the direction: up counts the position up) at most,
 // on the ramp from min_speed to `speed` (mm/s) with `ms`'s acceleration; toward a switch, it
-// ends where the switch ahead fires. Throws std::runtime_error naming the port and motor when
-// the board refuses it, stops it (stop-all, the watchdog) or does not answer.
+// ends where the switch ahead fires.
+struct MoveOrder {
+  uint8_t motor = 0;
+  int64_t steps = 0;
+  double speed = 0;
+  MotionSettings ms;
+  bool to_switch = false;
+};
+
+// Starts every order's move at once (one motor each) and waits until all have ended; their
+// results in the orders' order (a zero-step order: a default result). Throws std::runtime_error
+// naming the port and the motors when the board refuses a move, stops one (stop-all, the
+// watchdog) or one does not end in time; a motor still moving then is stopped with stop-all.
+std::vector<MoveResult> move_motors(Board &board, const std::string &port, const std::vector<MoveOrder> &orders);
+
+// One motor's move (move_motors with one order).
 MoveResult move_motor(Board &board, const std::string &port, uint8_t motor, int64_t steps, double speed,
                       const MotionSettings &ms, bool to_switch);
 
@@ -52,14 +67,24 @@ struct HomeResult {
   int32_t middle = 0;        // where the carriage stopped (its position from now on), steps
 };
 
-// Homes `motor` of a board whose capabilities say it has switches (caps.endstops): runs to one
-// switch at home_speed, backs off, touches it again at a quarter of that speed and counts from
-// it (0 at the min end, travel at the max end); where both ends have switches (one input for
-// both counts), runs to the other and measures the travel; then moves to the middle. A switch
-// that does not fire within the travel and a quarter stops the motor and throws. A motor
-// without switches throws, pointing at jog and center. `say` gets a line for each stage.
-HomeResult home_motor(Board &board, const Caps &caps, const std::string &port, uint8_t motor,
-                      uint32_t travel_steps, const MotionSettings &ms, const std::function<void(const std::string &)> &say);
+// A motor to home, with its configured travel (steps) and motion settings.
+struct HomeJob {
+  uint8_t motor = 0;
+  uint32_t travel_steps = 0;
+  MotionSettings ms;
+};
+
+// Homes the jobs' motors, all at once, on a board whose capabilities say they have switches
+// (caps.endstops). Each runs to one switch at home_speed, backs off, touches it again at a
+// quarter of that speed and counts from it (0 at the min end, travel at the max end); where
+// both ends have switches (one input for both counts), runs to the other and measures the
+// travel; then moves to the middle. The motors take each of these stages together, and the
+// next once every one has ended it. A switch that does not fire within the travel and a
+// quarter stops the motor and throws. A motor without switches throws before any moves,
+// pointing at jog and center. `say` gets a line for each motor's stages. Results in the jobs'
+// order.
+std::vector<HomeResult> home_motors(Board &board, const Caps &caps, const std::string &port,
+                                    const std::vector<HomeJob> &jobs, const std::function<void(const std::string &)> &say);
 
 }  // namespace stepchoir
 

@@ -128,6 +128,7 @@ int8_t motor_mono_channel(const BoardSettings *settings, uint8_t motor) {
 
 void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
                 const std::vector<int> &motors, const std::function<void(const std::string &)> &say) {
+  std::vector<HomeJob> jobs;
   for (uint8_t m = 0; m < caps.motor_count; ++m) {
     const bool asked = std::find(motors.begin(), motors.end(), int(m)) != motors.end();
     if (!motors.empty() && !asked) continue;
@@ -136,11 +137,16 @@ void home_board(Board &board, const Caps &caps, const BoardSettings *settings, c
       say(port + ": motor " + std::to_string(m) + " has no end switch: not homed (jog and center set it by eye)");
       continue;
     }
-    const HomeResult h = home_motor(board, caps, port, m, motor_travel(settings, m), motor_motion(settings, m), say);
-    if (h.measured && std::abs(h.travel_steps - int32_t(motor_travel(settings, m))) > h.travel_steps / 50)
-      say(port + ": motor " + std::to_string(m) + ": the rail measures " + std::to_string(h.travel_steps) +
+    jobs.push_back({m, motor_travel(settings, m), motor_motion(settings, m)});
+  }
+  if (jobs.empty()) return;
+  const std::vector<HomeResult> homed = home_motors(board, caps, port, jobs, say);
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const HomeResult &h = homed[i];
+    if (h.measured && std::abs(h.travel_steps - int32_t(jobs[i].travel_steps)) > h.travel_steps / 50)
+      say(port + ": motor " + std::to_string(jobs[i].motor) + ": the rail measures " + std::to_string(h.travel_steps) +
           " steps between its switches; the configuration says travel_steps = " +
-          std::to_string(motor_travel(settings, m)) + ": set it to " + std::to_string(h.travel_steps));
+          std::to_string(jobs[i].travel_steps) + ": set it to " + std::to_string(h.travel_steps));
   }
 }
 
