@@ -99,6 +99,9 @@ std::string parts_table(const Split &split, size_t onsets, double jack_period_us
        "bench/results/onset-latency.md"},
       {"after MIDI in", "the MIDI callback's stamp -> first STEP edge", [](const NoteParts &p) { return p.after_midi(); },
        "all but JACK: stepchoir, the link and the board"},
+      {"JACK and the link", "total less the host's and the firmware's parts",
+       [](const NoteParts &p) { return p.jack + p.link + p.wire; },
+       "what the JACK server and the USB bridge take: stepchoir's own parts come on top"},
       {"total", "key -> first STEP edge", [](const NoteParts &p) { return p.total; }, ""},
   };
   std::ostringstream out;
