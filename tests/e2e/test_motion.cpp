@@ -99,16 +99,21 @@ TEST_CASE("home: carriages at either end or off centre end in the middle, the ra
   }
 }
 
-TEST_CASE("home: a switch that never fires is reported, and the motor stops within its search", "[play][pacing]") {
+TEST_CASE("home: a switch that never fires is reported, the motor stops within its search, and the others end in "
+          "the middle",
+          "[play][pacing]") {
   const std::string trace_path = scratch("home-dead.csv");
   VboardProcess vb({"--board", "mega", "--speed", "2", "--trace", trace_path, "--quiet", "--no-measure", "--dead-switch", "0"});
   const std::string config = motion_config("home-dead", vb.pty(), "home_speed = 40.0\n");
   int status = -1;
-  const std::string out = run_stepchoir_all({"home", "--port", vb.pty(), "--config", config, "--motor", "0"}, &status);
+  const std::string out = run_stepchoir_all({"home", "--port", vb.pty(), "--config", config}, &status);
   INFO(out);
   CHECK(status == 1);
   CHECK(out.find("motor 0: the min switch did not fire within 4000 steps (50.0 mm): the motor stopped") !=
         std::string::npos);
+  CHECK(out.find("motor 0: in the middle") == std::string::npos);
+  for (const char *m : {"motor 1", "motor 2"})
+    CHECK(out.find(std::string(m) + ": in the middle, position 1600") != std::string::npos);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // nothing more moves after the exit
   REQUIRE(vb.stop() == 0);
   const tr::Trace t = tr::read_trace(trace_path);
@@ -118,6 +123,7 @@ TEST_CASE("home: a switch that never fires is reported, and the motor stops with
   CHECK(int64_t(s.size()) == search);  // down the whole search, not a step more
   CHECK(s.back().position == kTravel / 2 - search);
   CHECK(t.motor[0].endstop_changes.empty());
+  for (size_t m : {1u, 2u}) CHECK(final_position(t, m, kTravel / 2) == kTravel / 2);
 }
 
 TEST_CASE("jog: the move follows the Torricelli ramp, v^2 = v0^2 + 2as, up, at speed, and down", "[play][pacing]") {

@@ -156,8 +156,8 @@ std::vector<HomeResult> home_motors(Board &board, const Caps &caps, const std::s
   }
   std::vector<HomeResult> out(jobs.size());
   for (size_t i = 0; i < jobs.size(); ++i) out[i].travel_steps = int32_t(jobs[i].travel_steps);
-  // One stage: every motor that `takes` its move (toward `d` times its first switch's side,
-  // `steps` long, at `speed`), at once.
+  const auto live = [&](size_t i) { return out[i].failure.empty(); };
+  // One stage: every motor that `takes` its move (`steps`, signed, at `speed`), at once.
   const auto stage = [&](const std::function<bool(size_t)> &takes, const std::function<int64_t(size_t)> &steps,
                          const std::function<double(size_t)> &speed, bool to_switch) {
     std::vector<MoveOrder> orders(jobs.size());
@@ -165,52 +165,57 @@ std::vector<HomeResult> home_motors(Board &board, const Caps &caps, const std::s
       if (takes(i)) orders[i] = MoveOrder{jobs[i].motor, steps(i), speed(i), jobs[i].ms, to_switch};
     return move_motors(board, port, orders);
   };
-  // A touch: each motor's switch must have ended its move, else the motor stopped at its limit.
-  const auto touched = [&](const std::vector<MoveResult> &r, const std::function<bool(size_t)> &takes,
-                           const std::function<int64_t(size_t)> &limit, const std::function<bool(size_t)> &first_side) {
+  // After a stage of touches: a motor whose move did not end at the switch stopped at its limit,
+  // and is out of the rest. first_side: the switch toward its first one (else the far one).
+  const auto touched = [&](const std::vector<MoveResult> &r, const std::function<bool(size_t)> &took,
+                           const std::function<int64_t(size_t)> &limit, bool first_side) {
     for (size_t i = 0; i < jobs.size(); ++i) {
-      if (!takes(i) || r[i].end == sc::kMoveEndSwitch) continue;
-      const bool min_side = (hs[i].dir < 0) == first_side(i);
-      throw std::runtime_error(hs[i].name + ": the " + std::string(min_side ? "min" : "max") +
-                               " switch did not fire within " + std::to_string(limit(i)) + " steps (" +
-                               mm_text(double(limit(i)), jobs[i].ms) +
-                               "): the motor stopped. Is the switch wired, and travel_steps right?");
+      if (!took(i) || r[i].end == sc::kMoveEndSwitch) continue;
+      const bool min_side = (hs[i].dir < 0) == first_side;
+      out[i].failure = hs[i].name + ": the " + std::string(min_side ? "min" : "max") + " switch did not fire within " +
+                       std::to_string(limit(i)) + " steps (" + mm_text(double(limit(i)), jobs[i].ms) +
+                       "): the motor stopped. Is the switch wired, and travel_steps right?";
     }
   };
-  const auto all = [](size_t) { return true; };
-  const auto first = [](size_t) { return true; };
   const auto home_speed = [&](size_t i) { return jobs[i].ms.home_speed; };
   const auto search = [&](size_t i) { return hs[i].search; };
   const auto touch_limit = [&](size_t i) { return 2 * hs[i].backoff; };
-  touched(stage(all, [&](size_t i) { return hs[i].dir * hs[i].search; }, home_speed, true), all, search, first);
-  stage(all, [&](size_t i) { return -hs[i].dir * hs[i].backoff; }, home_speed, false);
-  touched(stage(all, [&](size_t i) { return hs[i].dir * touch_limit(i); },
+  const auto backoff = [&](int sign) { return [&hs, sign](size_t i) { return sign * hs[i].dir * hs[i].backoff; }; };
+  touched(stage(live, [&](size_t i) { return hs[i].dir * hs[i].search; }, home_speed, true), live, search, true);
+  stage(live, backoff(-1), home_speed, false);
+  touched(stage(live, [&](size_t i) { return hs[i].dir * touch_limit(i); },
                 [&](size_t i) { return jobs[i].ms.home_speed / 4; }, true),
-          all, touch_limit, first);
+          live, touch_limit, true);
   for (size_t i = 0; i < jobs.size(); ++i) {
+    if (!live(i)) continue;
     board.send(set_position_payload(jobs[i].motor, hs[i].origin));
     say(hs[i].name + ": " + (hs[i].dir < 0 ? "min" : "max") + " switch found, position " + std::to_string(hs[i].origin));
   }
-  stage(all, [&](size_t i) { return -hs[i].dir * hs[i].backoff; }, home_speed, false);
-  const auto both = [&](size_t i) { return hs[i].both; };
+  stage(live, backoff(-1), home_speed, false);
+  const auto both = [&](size_t i) { return live(i) && hs[i].both; };
   const auto far = stage(both, [&](size_t i) { return -hs[i].dir * hs[i].search; }, home_speed, true);
-  touched(far, both, search, [](size_t) { return false; });
+  touched(far, both, search, false);
   for (size_t i = 0; i < jobs.size(); ++i) {
-    if (!hs[i].both) continue;
+    if (!both(i)) continue;  // (a motor whose far switch did not fire is out: not live)
     out[i].travel_steps = std::abs(far[i].position - hs[i].origin);
     out[i].measured = true;
     if (hs[i].dir > 0) board.send(set_position_payload(jobs[i].motor, 0));  // positions count from the min end
     say(hs[i].name + ": " + (hs[i].dir < 0 ? "max" : "min") + " switch found: travel " +
         std::to_string(out[i].travel_steps) + " steps (" + mm_text(out[i].travel_steps, jobs[i].ms) + ")");
   }
-  stage(both, [&](size_t i) { return hs[i].dir * hs[i].backoff; }, home_speed, false);
+  stage(both, backoff(1), home_speed, false);
+  bool any = false;
+  for (size_t i = 0; i < jobs.size(); ++i) any = any || live(i);
+  if (!any) return out;
   const auto s = board.status(1000);
   for (size_t i = 0; i < jobs.size(); ++i)
-    if (!s || jobs[i].motor >= s->motors.size()) throw std::runtime_error(hs[i].name + ": no status reply");
-  for (size_t i = 0; i < jobs.size(); ++i) out[i].middle = out[i].travel_steps / 2;
-  stage(all, [&](size_t i) { return int64_t(out[i].middle) - s->motors[jobs[i].motor].position_steps; },
+    if (live(i) && (!s || jobs[i].motor >= s->motors.size())) throw std::runtime_error(hs[i].name + ": no status reply");
+  for (size_t i = 0; i < jobs.size(); ++i)
+    if (live(i)) out[i].middle = out[i].travel_steps / 2;
+  stage(live, [&](size_t i) { return int64_t(out[i].middle) - s->motors[jobs[i].motor].position_steps; },
         [&](size_t i) { return jobs[i].ms.max_speed; }, false);
-  for (size_t i = 0; i < jobs.size(); ++i) say(hs[i].name + ": in the middle, position " + std::to_string(out[i].middle));
+  for (size_t i = 0; i < jobs.size(); ++i)
+    if (live(i)) say(hs[i].name + ": in the middle, position " + std::to_string(out[i].middle));
   return out;
 }
 

@@ -65,6 +65,7 @@ struct HomeResult {
   int32_t travel_steps = 0;  // between the two switches as measured, or the configured travel
   bool measured = false;     // both ends have switches: travel_steps was measured
   int32_t middle = 0;        // where the carriage stopped (its position from now on), steps
+  std::string failure;       // not empty: a switch did not fire, the motor stopped; what to check
 };
 
 // A motor to home, with its configured travel (steps) and motion settings.
@@ -80,9 +81,10 @@ struct HomeJob {
 // both ends have switches (one input for both counts), runs to the other and measures the
 // travel; then moves to the middle. The motors take each of these stages together, and the
 // next once every one has ended it. A switch that does not fire within the travel and a
-// quarter stops the motor and throws. A motor without switches throws before any moves,
-// pointing at jog and center. `say` gets a line for each motor's stages. Results in the jobs'
-// order.
+// quarter stops that motor where its search ends, and it takes no further stage (its result's
+// failure says which switch and what to check); the others go on. A motor without switches
+// throws before any moves, pointing at jog and center; so does a move the board refuses or
+// stops (move_motors). `say` gets a line for each motor's stages. Results in the jobs' order.
 std::vector<HomeResult> home_motors(Board &board, const Caps &caps, const std::string &port,
                                     const std::vector<HomeJob> &jobs, const std::function<void(const std::string &)> &say);
 

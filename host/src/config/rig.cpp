@@ -141,13 +141,16 @@ void home_board(Board &board, const Caps &caps, const BoardSettings *settings, c
   }
   if (jobs.empty()) return;
   const std::vector<HomeResult> homed = home_motors(board, caps, port, jobs, say);
+  std::string failures;
   for (size_t i = 0; i < jobs.size(); ++i) {
     const HomeResult &h = homed[i];
+    if (!h.failure.empty()) failures += (failures.empty() ? "" : "\n") + h.failure;
     if (h.measured && std::abs(h.travel_steps - int32_t(jobs[i].travel_steps)) > h.travel_steps / 50)
       say(port + ": motor " + std::to_string(jobs[i].motor) + ": the rail measures " + std::to_string(h.travel_steps) +
           " steps between its switches; the configuration says travel_steps = " +
           std::to_string(jobs[i].travel_steps) + ": set it to " + std::to_string(h.travel_steps));
   }
+  if (!failures.empty()) throw std::runtime_error(failures);
 }
 
 std::vector<MotorConfig> motor_music(const BoardSettings *settings, uint32_t f_cpu_hz, const std::vector<uint8_t> &ids) {

@@ -67,9 +67,10 @@ void configure_motors(Board &board, const Caps &caps, const BoardSettings &setti
 // Homes every motor of the board that has an end switch, all at once (board/motion.h
 // home_motors), with the file's travel and motion settings where `settings` lists the motor;
 // `motors` empty: all of them, else those. A motor without switches is skipped with a line to
-// `say` unless asked for by name (then home_motors throws before any motor moves). Called
-// from: `stepchoir home`, and live, play and jam when the file sets home_on_start, after
-// configure_motors.
+// `say` unless asked for by name (then home_motors throws before any motor moves). A motor
+// whose switch did not fire leaves the others to finish; then this throws, a line for each such
+// motor. Called from: `stepchoir home`, and live, play and jam when the file sets home_on_start,
+// after configure_motors.
 void home_board(Board &board, const Caps &caps, const BoardSettings *settings, const std::string &port,
                 const std::vector<int> &motors, const std::function<void(const std::string &)> &say);
 
