@@ -17,6 +17,7 @@ trap 'rm -rf "$tmp"' EXIT
 start=$(date -u '+%Y-%m-%d %H:%M UTC')
 (cd "$build" && ctest -N -L pacing | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/pacing.txt"
 (cd "$build" && ctest -N -L e2e | sed -n 's/^ *Test *#[0-9]*: //p') > "$tmp/all.txt"
+rm -rf "$build/flake-logs"  # a log left by an earlier invocation would be taken for this one's
 : > "$tmp/results.txt"
 : > "$tmp/stalls.txt"
 for i in $(seq 1 "$runs"); do
